@@ -1,0 +1,91 @@
+"""Rigid-body relations between the inertial parameters of a body on a dynamometer shaft.
+
+Symbols (SI units throughout): mass ``m`` (kg), distance of the centre of mass from the joint
+``x`` (m), radius of gyration about the centre of mass ``rho`` (m), moment of inertia about the
+joint ``I = m (rho**2 + x**2)`` (kg m^2) and gravitational moment ``M_g = m g x`` (N m).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+#: Standard gravity used by the paper (m/s^2); every function takes ``gravity=`` to change it.
+GRAVITY = 9.81
+
+#: Parameter names in the order used for arrays of shape ``(..., 3)``.
+PARAMETERS = ("mass", "com_distance", "radius_of_gyration")
+#: Derived quantities reported beside the parameters.
+DERIVED = ("inertia", "gravity_moment")
+UNITS = {
+    "mass": "kg",
+    "com_distance": "m",
+    "radius_of_gyration": "m",
+    "inertia": "kg m^2",
+    "gravity_moment": "N m",
+}
+LABELS = {
+    "mass": "mass $m$ [kg]",
+    "com_distance": "CoM distance $x$ [m]",
+    "radius_of_gyration": r"radius of gyration $\rho$ [m]",
+    "inertia": r"inertia $I$ [kg m$^2$]",
+    "gravity_moment": r"gravity moment $M_g$ [N m]",
+}
+
+
+def inertia(mass: ArrayLike, radius_of_gyration: ArrayLike, com_distance: ArrayLike) -> NDArray:
+    """Moment of inertia about the joint, ``m (rho^2 + x^2)`` (kg m^2), parallel-axis theorem."""
+    m, rho, x = np.asarray(mass), np.asarray(radius_of_gyration), np.asarray(com_distance)
+    return m * (rho**2 + x**2)
+
+
+def gravity_moment(mass: ArrayLike, com_distance: ArrayLike, gravity: float = GRAVITY) -> NDArray:
+    """Largest gravitational moment about the joint, ``m g x`` (N m)."""
+    return np.asarray(mass) * gravity * np.asarray(com_distance)
+
+
+def minimum_mass(inertia: ArrayLike, gravity_moment: ArrayLike, gravity: float = GRAVITY):
+    """Smallest mass consistent with ``I`` and ``M_g``: ``(M_g/g)^2 / I`` (kg).
+
+    It follows from ``rho^2 >= 0``: ``I = m rho^2 + (m x)^2 / m >= (M_g/g)^2 / m``.
+    """
+    return (np.asarray(gravity_moment) / gravity) ** 2 / np.asarray(inertia)
+
+
+def maximum_com_distance(inertia: ArrayLike, gravity_moment: ArrayLike, gravity: float = GRAVITY):
+    """Largest centre-of-mass distance consistent with ``I`` and ``M_g``: ``I g / M_g`` (m)."""
+    return np.asarray(inertia) * gravity / np.asarray(gravity_moment)
+
+
+def parameters_from_identified(
+    first_moment: ArrayLike, inertia: ArrayLike, angle: ArrayLike
+) -> tuple[NDArray, NDArray, NDArray]:
+    """Map the identified pair and the unidentified angle back to ``(m, x, rho)``.
+
+    Every body with first moment of mass ``a = m x`` (kg m) and inertia ``I = b`` (kg m^2) lies
+    on the curve ``x = R sin^2(psi)``, ``rho = R sin(psi) cos(psi)``, ``m = a / x`` with
+    ``R = b / a`` (the distance from the joint to the centre of percussion) and
+    ``psi = atan(x / rho)`` in ``(0, pi/2)``. A uniform prior on ``(m, x, rho)`` is, in
+    ``(a, b, psi)``, the density ``1/a`` on the image of the box: uniform in ``psi`` for fixed
+    ``(a, b)``. The data speak to ``(a, b)`` only; ``psi`` is where the prior decides.
+
+    Parameters
+    ----------
+    first_moment : array_like
+        ``a = m x`` (kg m).
+    inertia : array_like
+        ``b = I`` (kg m^2), about the joint.
+    angle : array_like
+        ``psi`` (rad) in ``(0, pi/2)``.
+
+    Returns
+    -------
+    mass, com_distance, radius_of_gyration : ndarray
+        ``m`` (kg), ``x`` (m), ``rho`` (m), broadcast together.
+    """
+    a, b, psi = np.asarray(first_moment), np.asarray(inertia), np.asarray(angle)
+    r = b / a
+    s = np.sin(psi)
+    x = r * s * s
+    rho = r * s * np.cos(psi)
+    return a / x, x, rho
