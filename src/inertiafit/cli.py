@@ -1,5 +1,157 @@
-"""Command line: ``inertiafit``."""
+"""Command line: ``inertiafit fit | demo | priors``.
+
+The command line only parses arguments and calls the library. Bad input ends with one line on
+stderr (``inertiafit: error: ...``) and exit status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from inertiafit.errors import InputError
 
 
-def main(argv=None) -> int:  # placeholder replaced below in this session
-    raise SystemExit("not yet")
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (the usage stays behind ``--help``)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        message = message.replace("argument ", "", 1) if message.startswith("argument ") else message
+        self.exit(2, f"inertiafit: error: {' '.join(message.split())}\n")
+
+
+def _number(option: str):
+    def parse(text: str) -> float:
+        try:
+            return float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+    return parse
+
+
+def _count(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+
+
+def _add_common(p: argparse.ArgumentParser, default_out: str) -> None:
+    p.add_argument("--out", type=Path, default=Path(default_out),
+                   help=f"output folder, replaced whole (default: {default_out})")
+    p.add_argument("--seed", type=_count, default=0, help="seed of every random draw (default 0)")
+    p.add_argument("--hdi-prob", type=_number("--hdi-prob"), default=0.95,
+                   help="probability of the highest-density intervals (default 0.95)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (also used to document the command line)."""
+    from inertiafit import __version__
+
+    parser = _Parser(
+        prog="inertiafit",
+        description="Inertial parameters (mass, centre-of-mass distance, radius of gyration) of a "
+        "body on a dynamometer shaft, with Bayesian uncertainty.",
+    )
+    parser.add_argument("--version", action="version", version=f"inertiafit {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    fit = sub.add_parser(
+        "fit",
+        help="one body from numbers: inertia and gravity moment",
+        description="Posterior of one body's (m, x, rho) from its moment of inertia about the "
+        "joint and its gravitational moment. Writes summary.csv, identification.csv, "
+        "baseline.csv, posterior.nc, corner.pdf and corner.png into --out.",
+    )
+    fit.add_argument("--prior", required=True,
+                     help="a shipped prior by name (see 'inertiafit priors') or a TOML file")
+    fit.add_argument("--inertia", nargs="+", required=True, type=_number("--inertia"),
+                     metavar="V", help="moment of inertia about the joint, kg m^2 (trial values, "
+                     "or one value with --inertia-se or --inertia-sd/--inertia-n)")
+    fit.add_argument("--inertia-se", type=_number("--inertia-se"), metavar="S",
+                     help="standard error of a single inertia value, kg m^2")
+    fit.add_argument("--inertia-sd", type=_number("--inertia-sd"), metavar="S",
+                     help="SD of the trials behind a mean inertia value, kg m^2")
+    fit.add_argument("--inertia-n", type=_count, metavar="N",
+                     help="number of trials behind a mean inertia value")
+    fit.add_argument("--gravity-moment", nargs="+", required=True,
+                     type=_number("--gravity-moment"), metavar="V",
+                     help="gravitational moment m g x, N m (trial values or one value with an SE)")
+    fit.add_argument("--gravity-moment-se", type=_number("--gravity-moment-se"), metavar="S",
+                     help="standard error of a single gravity-moment value, N m")
+    fit.add_argument("--gravity-moment-sd", type=_number("--gravity-moment-sd"), metavar="S",
+                     help="SD of the trials behind a mean gravity moment, N m")
+    fit.add_argument("--gravity-moment-n", type=_count, metavar="N",
+                     help="number of trials behind a mean gravity moment")
+    fit.add_argument("--gravity", type=_number("--gravity"), default=9.81,
+                     help="gravitational acceleration, m/s^2 (default 9.81, as the paper)")
+    _add_common(fit, "inertiafit-output")
+
+    demo = sub.add_parser("demo", help="the paper's elbow attachment and 3 kg disk from its numbers")
+    _add_common(demo, "demo-output")
+
+    sub.add_parser("priors", help="list the shipped priors")
+    return parser
+
+
+def _fit(args) -> int:
+    from inertiafit.commands import run_fit
+
+    if args.gravity <= 0:
+        raise InputError(f"--gravity: expected a positive number, got {args.gravity}")
+    run_fit(
+        prior=args.prior,
+        inertia=args.inertia,
+        inertia_se=args.inertia_se,
+        inertia_sd=args.inertia_sd,
+        inertia_n=args.inertia_n,
+        gravity_moment=args.gravity_moment,
+        gravity_moment_se=args.gravity_moment_se,
+        gravity_moment_sd=args.gravity_moment_sd,
+        gravity_moment_n=args.gravity_moment_n,
+        gravity=args.gravity,
+        out=args.out,
+        seed=args.seed,
+        hdi_prob=args.hdi_prob,
+    )
+    return 0
+
+
+def _demo(args) -> int:
+    from inertiafit.commands import run_paper_demo
+
+    run_paper_demo(out=args.out, seed=args.seed, hdi_prob=args.hdi_prob)
+    return 0
+
+
+def _priors(_args) -> int:
+    from inertiafit.priors import available_priors, load_prior
+
+    for name in available_priors():
+        print(load_prior(name).describe())
+    return 0
+
+
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``inertiafit`` command."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    handlers = {"fit": _fit, "demo": _demo, "priors": _priors}
+    try:
+        if hasattr(args, "hdi_prob") and not 0 < args.hdi_prob < 1:
+            raise InputError(f"--hdi-prob: expected a probability in (0, 1), got {args.hdi_prob}")
+        return handlers[args.command](args)
+    except InputError as exc:
+        print(f"inertiafit: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("inertiafit: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

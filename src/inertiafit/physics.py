@@ -33,6 +33,15 @@ LABELS = {
 }
 
 
+SYMBOLS = {
+    "mass": "$m$",
+    "com_distance": "$x$",
+    "radius_of_gyration": r"$\rho$",
+    "inertia": "$I$",
+    "gravity_moment": "$M_g$",
+}
+
+
 def inertia(mass: ArrayLike, radius_of_gyration: ArrayLike, com_distance: ArrayLike) -> NDArray:
     """Moment of inertia about the joint, ``m (rho^2 + x^2)`` (kg m^2), parallel-axis theorem."""
     m, rho, x = np.asarray(mass), np.asarray(radius_of_gyration), np.asarray(com_distance)

@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from inertiafit.physics import LABELS, PARAMETERS, UNITS
+from inertiafit.physics import LABELS, PARAMETERS, SYMBOLS, UNITS
 
 REPORTED = (*PARAMETERS, "inertia", "gravity_moment")
 SUMMARY_COLUMNS = [
@@ -230,6 +230,7 @@ class Posterior:
             fig = Figure(figsize=(1.6 * n + 0.6, 1.6 * n + 0.6), dpi=100)
         kwargs = {
             "labels": [LABELS[p] for p in parameters],
+            "titles": [SYMBOLS[p] for p in parameters],
             "quantiles": list(quantiles),
             "show_titles": True,
             "title_fmt": ".3g",
@@ -245,7 +246,7 @@ class Posterior:
             kwargs["truths"] = [truths.get(p) for p in parameters]
         kwargs.update(corner_kwargs)
         fig = corner.corner(data, fig=fig, **kwargs)
-        fig.suptitle(f"{body}", fontsize=10)
+        fig.text(0.98, 0.98, body, ha="right", va="top", fontsize=11)
         return fig
 
     # -- display --------------------------------------------------------------------------
@@ -261,12 +262,13 @@ class Posterior:
         """Readable text: the table with intervals, who identifies what, diagnostics."""
         a = self.tree.attrs
         pct = f"{100 * hdi_prob:g}% HDI"
+        width = max(6, *(len(b) for b in self.bodies)) + 2
         lines = [
             f"inertiafit posterior: {len(self.bodies)} body(ies); {a.get('n_walkers')} walkers x "
             f"{self.tree['posterior'].sizes['draw']} draws kept of {a.get('n_steps')} steps; "
             f"tau {float(a.get('tau_max', math.nan)):.1f} steps; seed {a.get('seed')}; "
             + ("converged" if self.converged else "NOT CONVERGED"),
-            f"{'body':<14}{'parameter':<28}{'median':>10}  {pct:<24}{'sd':>10}  "
+            f"{'body':<{width}}{'parameter':<28}{'median':>10}  {pct:<24}{'sd':>10}  "
             f"{'R-hat':>6} {'ESS':>6}  identified by (post/prior SD)",
         ]
         for r in self._table_rows(hdi_prob):
@@ -274,7 +276,7 @@ class Posterior:
             name = f"{p} [{UNITS[p]}]"
             interval = f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]"
             lines.append(
-                f"{r['body']:<14}{name:<28}{r['median']:>10.4g}  {interval:<24}{r['sd']:>10.3g}  "
+                f"{r['body']:<{width}}{name:<28}{r['median']:>10.4g}  {interval:<24}{r['sd']:>10.3g}  "
                 f"{r['r_hat']:>6.3f} {r['ess_bulk']:>6.0f}  {r['identified_by']} "
                 f"({r['sd_ratio']:.2f})"
             )

@@ -183,14 +183,13 @@ class IndependenceMove:
 
         self.mean = np.asarray(mean, float)
         self.chol = np.linalg.cholesky(np.asarray(cov, float) * inflate**2)
+        self.chol_inv = np.linalg.inv(self.chol)
         self.df = float(df)
         self._mh = emcee.moves.MHMove(self._proposal)
 
     def _log_q(self, x: np.ndarray) -> np.ndarray:
-        from scipy.linalg import solve_triangular
-
-        r = solve_triangular(self.chol, (x - self.mean).T, lower=True)
-        return -0.5 * (self.df + len(self.mean)) * np.log1p((r * r).sum(0) / self.df)
+        r = (x - self.mean) @ self.chol_inv.T
+        return -0.5 * (self.df + len(self.mean)) * np.log1p((r * r).sum(1) / self.df)
 
     def _proposal(self, coords, random):
         n, d = coords.shape
