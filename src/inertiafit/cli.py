@@ -63,7 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="one body from numbers: inertia and gravity moment",
         description="Posterior of one body's (m, x, rho) from its moment of inertia about the "
         "joint and its gravitational moment. Writes summary.csv, identification.csv, "
-        "baseline.csv, posterior.nc, corner.pdf and corner.png into --out.",
+        "comparison.csv, posterior.nc, corner.pdf and corner.png into --out.",
     )
     fit.add_argument("--prior", required=True,
                      help="a shipped prior by name (see 'inertiafit priors') or a TOML file")
