@@ -31,7 +31,7 @@ lint: $(STAMP)
 	$(VENV)/bin/mypy
 
 bench: $(STAMP)
-	$(PY) benchmarks/run.py
+	$(PY) benchmarks/sampler.py
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) build dist .pytest_cache

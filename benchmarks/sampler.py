@@ -31,15 +31,21 @@ G = 9.81
 
 def cases():
     return {
-        "attachment": (load_prior("biodex-elbow-attachment"),
-                       Observation.from_mean_sd(0.216, 0.017, 30),
-                       Observation.from_mean_se(7.415, 0.05)),
-        "disk": (load_prior("disk-3kg"), Observation.from_mean_se(0.594, 0.0105),
-                 Observation.from_mean_se(12.80, 0.05)),
-        "wide-box": (Prior.box("wide", mass=2.91, com_distance=0.225, radius_of_gyration=0.13,
-                               spread=0.8),
-                     Observation.from_mean_sd(0.216, 0.017, 10),
-                     Observation.from_mean_se(7.415, 0.15)),
+        "attachment": (
+            load_prior("biodex-elbow-attachment"),
+            Observation.from_mean_sd(0.216, 0.017, 30),
+            Observation.from_mean_se(7.415, 0.05),
+        ),
+        "disk": (
+            load_prior("disk-3kg"),
+            Observation.from_mean_se(0.594, 0.0105),
+            Observation.from_mean_se(12.80, 0.05),
+        ),
+        "wide-box": (
+            Prior.box("wide", mass=2.91, com_distance=0.225, radius_of_gyration=0.13, spread=0.8),
+            Observation.from_mean_sd(0.216, 0.017, 10),
+            Observation.from_mean_se(7.415, 0.15),
+        ),
     }
 
 
@@ -68,10 +74,15 @@ def plain_emcee(prior, obs_i, obs_g, seed, n_steps):
     seconds = time.perf_counter() - t0
     chain = sampler.get_chain()
     tau = float(np.max(emcee.autocorr.integrated_time(chain, quiet=True, tol=0)))
-    kept = np.swapaxes(chain[int(5 * tau):], 0, 1)
+    kept = np.swapaxes(chain[int(5 * tau) :], 0, 1)
     m, x, rho = kept[..., 0], kept[..., 1], kept[..., 2]
-    draws = {"mass": m, "com_distance": x, "radius_of_gyration": rho,
-             "inertia": m * (rho**2 + x**2), "gravity_moment": G * m * x}
+    draws = {
+        "mass": m,
+        "com_distance": x,
+        "radius_of_gyration": rho,
+        "inertia": m * (rho**2 + x**2),
+        "gravity_moment": G * m * x,
+    }
     return draws, tau, seconds
 
 
@@ -115,14 +126,18 @@ def main() -> None:
         row["ess_per_s_ratio"] = row["inertiafit_ess_per_s"] / row["plain_ess_per_s"]
         row["tau_ratio"] = row["plain_tau"] / row["inertiafit_tau"]
         rows.append(row)
-    head = (f"{'posterior':<12}{'tau ours':>9}{'tau plain':>10}{'ESS/s ours':>12}"
-            f"{'ESS/s plain':>12}{'ratio':>8}{'err ours':>10}{'err plain':>10}")
+    head = (
+        f"{'posterior':<12}{'tau ours':>9}{'tau plain':>10}{'ESS/s ours':>12}"
+        f"{'ESS/s plain':>12}{'ratio':>8}{'err ours':>10}{'err plain':>10}"
+    )
     print(head)
     for r in rows:
-        print(f"{r['posterior']:<12}{r['inertiafit_tau']:>9.2f}{r['plain_tau']:>10.1f}"
-              f"{r['inertiafit_ess_per_s']:>12.0f}{r['plain_ess_per_s']:>12.0f}"
-              f"{r['ess_per_s_ratio']:>7.1f}x{r['inertiafit_mean_err_sd']:>10.3f}"
-              f"{r['plain_mean_err_sd']:>10.3f}")
+        print(
+            f"{r['posterior']:<12}{r['inertiafit_tau']:>9.2f}{r['plain_tau']:>10.1f}"
+            f"{r['inertiafit_ess_per_s']:>12.0f}{r['plain_ess_per_s']:>12.0f}"
+            f"{r['ess_per_s_ratio']:>7.1f}x{r['inertiafit_mean_err_sd']:>10.3f}"
+            f"{r['plain_mean_err_sd']:>10.3f}"
+        )
     print("(err: largest |posterior mean - quadrature mean| over the five quantities, in SDs)")
     if args.json:
         with open(args.json, "w") as fh:

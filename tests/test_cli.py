@@ -8,8 +8,19 @@ import pytest
 from inertiafit.cli import main
 from inertiafit.result import SUMMARY_COLUMNS, open_posterior
 
-DISK = ["fit", "--prior", "disk-3kg", "--inertia", "0.594", "--inertia-se", "0.0105",
-        "--gravity-moment", "12.8", "--gravity-moment-se", "0.05"]
+DISK = [
+    "fit",
+    "--prior",
+    "disk-3kg",
+    "--inertia",
+    "0.594",
+    "--inertia-se",
+    "0.0105",
+    "--gravity-moment",
+    "12.8",
+    "--gravity-moment-se",
+    "0.05",
+]
 
 
 @pytest.fixture(scope="module")
@@ -21,34 +32,54 @@ def disk_run(tmp_path_factory):
 
 def test_fit_writes_every_output(disk_run):
     names = {p.name for p in disk_run.iterdir()}
-    assert {"summary.csv", "posterior.nc", "corner.pdf", "corner.png", "identification.csv",
-            "comparison.csv"} <= names
+    assert {
+        "summary.csv",
+        "posterior.nc",
+        "corner.pdf",
+        "corner.png",
+        "identification.csv",
+        "comparison.csv",
+    } <= names
     s = pd.read_csv(disk_run / "summary.csv")
     assert list(s.columns) == SUMMARY_COLUMNS
     assert set(s.body) == {"disk-3kg"}
-    assert list(s.parameter) == ["mass", "com_distance", "radius_of_gyration", "inertia",
-                                 "gravity_moment"]
+    assert list(s.parameter) == [
+        "mass",
+        "com_distance",
+        "radius_of_gyration",
+        "inertia",
+        "gravity_moment",
+    ]
     row = s.set_index("parameter").loc["mass"]
     # m is pinned near (M_g/g)^2/I = 2.87 kg; the 95 % HDI holds the paper's 2.90 kg
     assert row.hdi_lower < 2.90 < row.hdi_upper
     assert row.hdi_upper - row.hdi_lower < 0.3
-    assert (s.r_hat < 1.01).all() and (s.ess_bulk > 1000).all()
+    assert (s.r_hat < 1.01).all()
+    assert (s.ess_bulk > 1000).all()
     assert (disk_run / "corner.png").read_bytes()[:4] == b"\x89PNG"
     assert (disk_run / "corner.pdf").read_bytes()[:4] == b"%PDF"
 
 
 def test_netcdf_round_trip_keeps_every_group_and_the_summary(disk_run):
     post = open_posterior(disk_run / "posterior.nc")
-    for group in ("posterior", "sample_stats", "log_likelihood", "observed_data", "prior",
-                  "constant_data"):
+    for group in (
+        "posterior",
+        "sample_stats",
+        "log_likelihood",
+        "observed_data",
+        "prior",
+        "constant_data",
+    ):
         assert group in post.tree.children
     assert post.attrs["seed"] == 4
     assert post.converged
     saved = pd.read_csv(disk_run / "summary.csv")
     again = post.summary(0.95)
     pd.testing.assert_frame_equal(
-        saved.drop(columns=["body", "parameter"]), again.drop(columns=["body", "parameter"]),
-        check_exact=False, rtol=1e-7,
+        saved.drop(columns=["body", "parameter"]),
+        again.drop(columns=["body", "parameter"]),
+        check_exact=False,
+        rtol=1e-7,
     )
     assert float(post.tree["constant_data"]["upper"].sel(body="disk-3kg", parameter="mass")) == (
         pytest.approx(4.38)
@@ -70,13 +101,19 @@ def test_fit_prints_the_table_and_the_baseline(tmp_path, capsys):
     assert "90% HDI" in text
     assert "paper baseline" in text
     assert "Son et al. Table 3, estimated" in text
-    assert "identified by" in text and "prior (" in text
+    assert "identified by" in text
+    assert "prior (" in text
 
 
 def _with(**changes):
     """DISK arguments with some options replaced (None removes an option)."""
-    opts = {"--prior": ["disk-3kg"], "--inertia": ["0.594"], "--inertia-se": ["0.0105"],
-            "--gravity-moment": ["12.8"], "--gravity-moment-se": ["0.05"]}
+    opts = {
+        "--prior": ["disk-3kg"],
+        "--inertia": ["0.594"],
+        "--inertia-se": ["0.0105"],
+        "--gravity-moment": ["12.8"],
+        "--gravity-moment-se": ["0.05"],
+    }
     for key, value in changes.items():
         opt = "--" + key.replace("_", "-")
         if value is None:
@@ -97,8 +134,10 @@ def _with(**changes):
         (_with(inertia_se=None, inertia_n="30"), "--inertia-sd and --inertia-n go together"),
         (_with(hdi_prob="1.5"), r"--hdi-prob: expected a probability in \(0, 1\)"),
         (_with(seed="x"), "--seed: expected a whole number"),
-        (_with(inertia="0.30", inertia_se="0.003"),
-         r"contains no solution.*mass upper bound 4\.38 kg is below \(M_g/g\)\^2/I = 5\.67"),
+        (
+            _with(inertia="0.30", inertia_se="0.003"),
+            r"contains no solution.*mass upper bound 4\.38 kg is below \(M_g/g\)\^2/I = 5\.67",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_code_2(tmp_path, capsys, argv, match):
@@ -134,7 +173,9 @@ def test_out_folder_of_someone_elses_is_not_replaced(tmp_path, capsys):
 
 def test_command_is_installed_and_quiet_when_not_a_terminal(tmp_path):
     res = subprocess.run(
-        [sys.executable, "-m", "inertiafit.cli", "priors"], capture_output=True, text=True,
+        [sys.executable, "-m", "inertiafit.cli", "priors"],
+        capture_output=True,
+        text=True,
         check=True,
     )
     assert "biodex-elbow-attachment" in res.stdout

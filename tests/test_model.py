@@ -58,8 +58,13 @@ def test_log_prob_is_minus_infinity_outside_and_finite_inside():
     p = load_prior("disk-3kg")
     model = Model(
         {"disk": p},
-        [Condition(("disk",), Observation.from_mean_se(0.594, 0.01),
-                   Observation.from_mean_se(12.8, 0.05))],
+        [
+            Condition(
+                ("disk",),
+                Observation.from_mean_se(0.594, 0.01),
+                Observation.from_mean_se(12.8, 0.05),
+            )
+        ],
     )
     inside = np.log([[12.8 / 9.81, 0.594]])
     outside = np.log([[12.8 / 9.81, 5.0]])  # an inertia no body in the box can have
@@ -71,10 +76,17 @@ def test_infeasible_box_is_reported_with_the_mass_bound():
     p = load_prior("disk-3kg")  # mass at most 4.38 kg
     model = Model(
         {"disk": p},
-        [Condition(("disk",), Observation.from_mean_se(0.30, 0.003),
-                   Observation.from_mean_se(12.8, 0.05))],
+        [
+            Condition(
+                ("disk",),
+                Observation.from_mean_se(0.30, 0.003),
+                Observation.from_mean_se(12.8, 0.05),
+            )
+        ],
     )
-    with pytest.raises(InputError, match=r"mass upper bound 4\.38 kg is below \(M_g/g\)\^2/I = 5\.67"):
+    with pytest.raises(
+        InputError, match=r"mass upper bound 4\.38 kg is below \(M_g/g\)\^2/I = 5\.67"
+    ):
         model.check_feasible()
 
 

@@ -19,7 +19,7 @@ def test_repeated_values_give_the_marginal_student_t():
     from scipy.integrate import quad
 
     def marginal(m):
-        f = lambda s: np.prod(stats.norm.pdf(y, m, s)) / s  # noqa: E731
+        f = lambda s: np.prod(stats.norm.pdf(y, m, s)) / s
         return quad(f, 1e-4, 1.0, limit=200)[0]
 
     num = np.array([marginal(m) for m in mu])

@@ -44,7 +44,8 @@ def test_prior_found_by_path_and_units_converted(tmp_path):
 def test_inline_table_and_box_constructor_agree():
     a = load_prior({"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45}, name="w")
     b = Prior.box("w", mass=2.92, com_distance=0.45, radius_of_gyration=0.035)
-    assert a.lower == b.lower and a.upper == b.upper
+    assert a.lower == b.lower
+    assert a.upper == b.upper
 
 
 def test_prior_sampling_is_uniform_on_the_box():
@@ -52,14 +53,15 @@ def test_prior_sampling_is_uniform_on_the_box():
     d = p.sample(200_000, np.random.default_rng(0))
     for k in ("mass", "com_distance", "radius_of_gyration"):
         lo, hi = p.lower[k], p.upper[k]
-        assert d[k].min() >= lo and d[k].max() <= hi
+        assert d[k].min() >= lo
+        assert d[k].max() <= hi
         # mean and SD of a uniform, to 5 Monte Carlo standard errors
         sd = (hi - lo) / math.sqrt(12)
         assert abs(d[k].mean() - (lo + hi) / 2) < 5 * sd / math.sqrt(2e5)
         assert d[k].std() == pytest.approx(sd, rel=0.01)
 
 
-GOOD = '[mass]\nnominal = 2\n[radius_of_gyration]\nnominal = 0.1\n[com_distance]\nnominal = 0.2\n'
+GOOD = "[mass]\nnominal = 2\n[radius_of_gyration]\nnominal = 0.1\n[com_distance]\nnominal = 0.2\n"
 
 
 @pytest.mark.parametrize(
@@ -69,16 +71,20 @@ GOOD = '[mass]\nnominal = 2\n[radius_of_gyration]\nnominal = 0.1\n[com_distance]
         (GOOD.replace("nominal = 2\n", "nominal = -2\n"), r"mass\.nominal' must be positive"),
         (GOOD + "colour = 1\n", "unknown key 'com_distance.colour'"),
         ("wibble = 1\n" + GOOD, "unknown key 'wibble'"),
-        (GOOD.replace("nominal = 0.2\n", "nominal = 0.2\nlower = 0.3\nupper = 0.1\n"),
-         r"com_distance\.lower' \(0\.3\) must be below"),
+        (
+            GOOD.replace("nominal = 0.2\n", "nominal = 0.2\nlower = 0.3\nupper = 0.1\n"),
+            r"com_distance\.lower' \(0\.3\) must be below",
+        ),
         (GOOD.replace("nominal = 0.2\n", "nominal = 0.2\nlower = 0.1\n"), "give both"),
         (GOOD.replace("nominal = 0.2\n", 'nominal = 0.2\nunit = "inch"\n'), "expected one of"),
         (GOOD.replace("nominal = 2\n", 'nominal = "two"\n'), "must be a number"),
         ("spread = 1.5\n" + GOOD, r"'spread' must lie in \(0, 1\)"),
         (GOOD.replace("[com_distance]\nnominal = 0.2\n", ""), r"missing parameter table '\[com_"),
         (GOOD + "[[", "not valid TOML"),
-        (GOOD.replace("nominal = 0.2\n", "nominal = 0.5\nlower = 0.1\nupper = 0.3\n"),
-         "lies outside"),
+        (
+            GOOD.replace("nominal = 0.2\n", "nominal = 0.5\nlower = 0.1\nupper = 0.3\n"),
+            "lies outside",
+        ),
     ],
 )
 def test_malformed_prior_files_are_one_line_errors(tmp_path, text, match):
@@ -91,7 +97,7 @@ def test_malformed_prior_files_are_one_line_errors(tmp_path, text, match):
 
 
 def test_unknown_prior_name_lists_the_shipped_ones():
-    with pytest.raises(InputError, match="no such shipped prior.*biodex-elbow-attachment"):
+    with pytest.raises(InputError, match=r"no such shipped prior.*biodex-elbow-attachment"):
         load_prior("biodex-knee")
     with pytest.raises(InputError, match="prior file not found"):
         load_prior("missing/prior.toml")

@@ -19,8 +19,11 @@ def brute_force(prior, obs_i, obs_g, n=150, gravity=9.81):
     log_l = obs_i.logpdf(m * (rho**2 + x**2)) + obs_g.logpdf(gravity * m * x)
     w = np.exp(log_l - log_l.max())
     w /= w.sum()
-    return {"mass": (w * m).sum(), "com_distance": (w * x).sum(),
-            "radius_of_gyration": (w * rho).sum()}
+    return {
+        "mass": (w * m).sum(),
+        "com_distance": (w * x).sum(),
+        "radius_of_gyration": (w * rho).sum(),
+    }
 
 
 def test_reference_agrees_with_a_brute_force_grid_in_the_original_box():

@@ -16,15 +16,23 @@ TRIALS = np.random.default_rng(11).normal(0.2157, 0.0167, 10)
 
 CASES = {
     # the paper's attachment: m, x, rho partly identified, partly prior
-    "attachment": ("biodex-elbow-attachment", Observation.from_mean_sd(0.216, 0.017, 30),
-                   Observation.from_mean_se(7.415, 0.05)),
+    "attachment": (
+        "biodex-elbow-attachment",
+        Observation.from_mean_sd(0.216, 0.017, 30),
+        Observation.from_mean_se(7.415, 0.05),
+    ),
     # the paper's disk: m pinned by the data, rho decided by the prior
-    "disk": ("disk-3kg", Observation.from_mean_se(0.594, 0.0105),
-             Observation.from_mean_se(12.80, 0.05)),
+    "disk": (
+        "disk-3kg",
+        Observation.from_mean_se(0.594, 0.0105),
+        Observation.from_mean_se(12.80, 0.05),
+    ),
     # a wide box (+-80 %) with ten raw trial values: a long curved ridge
-    "wide": (Prior.box("wide", mass=2.91, com_distance=0.225, radius_of_gyration=0.13,
-                       spread=0.8), Observation.from_values(TRIALS),
-             Observation.from_mean_se(7.415, 0.15)),
+    "wide": (
+        Prior.box("wide", mass=2.91, com_distance=0.225, radius_of_gyration=0.13, spread=0.8),
+        Observation.from_values(TRIALS),
+        Observation.from_mean_se(7.415, 0.15),
+    ),
 }
 
 
@@ -84,18 +92,30 @@ def test_plain_stretch_move_samples_the_same_posterior():
 
 
 def test_same_seed_same_draws_other_seed_other_draws():
-    kw = {"inertia": 0.594, "inertia_se": 0.0105, "gravity_moment": 12.8,
-          "gravity_moment_se": 0.05}
+    kw = {
+        "inertia": 0.594,
+        "inertia_se": 0.0105,
+        "gravity_moment": 12.8,
+        "gravity_moment_se": 0.05,
+    }
     a = fit_body("disk-3kg", seed=5, **kw)
     b = fit_body("disk-3kg", seed=5, **kw)
     c = fit_body("disk-3kg", seed=6, **kw)
     np.testing.assert_array_equal(a.draws("disk-3kg", "mass"), b.draws("disk-3kg", "mass"))
-    assert not np.array_equal(a.draws("disk-3kg", "mass")[:, :50], c.draws("disk-3kg", "mass")[:, :50])
+    assert not np.array_equal(
+        a.draws("disk-3kg", "mass")[:, :50], c.draws("disk-3kg", "mass")[:, :50]
+    )
 
 
 def test_identifiability_disk_mass_pinned_radius_of_gyration_from_the_prior():
-    post = fit_body("disk-3kg", inertia=0.594, inertia_se=0.0105, gravity_moment=12.8,
-                    gravity_moment_se=0.05, seed=0)
+    post = fit_body(
+        "disk-3kg",
+        inertia=0.594,
+        inertia_se=0.0105,
+        gravity_moment=12.8,
+        gravity_moment_se=0.05,
+        seed=0,
+    )
     ident = post.identification().set_index("parameter")
     assert ident.loc["mass", "identified_by"] == "data"
     assert ident.loc["mass", "sd_ratio"] < 0.1
@@ -106,8 +126,15 @@ def test_identifiability_disk_mass_pinned_radius_of_gyration_from_the_prior():
 
 
 def test_identifiability_attachment_is_shared_between_data_and_prior():
-    post = fit_body("biodex-elbow-attachment", inertia=0.216, inertia_sd=0.017, inertia_n=30,
-                    gravity_moment=7.415, gravity_moment_se=0.05, seed=0)
+    post = fit_body(
+        "biodex-elbow-attachment",
+        inertia=0.216,
+        inertia_sd=0.017,
+        inertia_n=30,
+        gravity_moment=7.415,
+        gravity_moment_se=0.05,
+        seed=0,
+    )
     ident = post.identification().set_index("parameter")
     for p in ("mass", "com_distance", "radius_of_gyration"):
         assert ident.loc[p, "identified_by"] == "data + prior"

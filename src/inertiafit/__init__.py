@@ -36,7 +36,8 @@ _LAZY = {
     "ConvergenceWarning": "inertiafit.errors",
 }
 
-__all__ = ["__version__", *_LAZY]
+__all__ = ["__version__"]
+__all__ += list(_LAZY)
 
 
 def __getattr__(name: str):

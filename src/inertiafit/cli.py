@@ -17,18 +17,17 @@ class _Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line (the usage stays behind ``--help``)."""
 
     def error(self, message: str):  # type: ignore[override]
-        message = message.replace("argument ", "", 1) if message.startswith("argument ") else message
+        message = (
+            message.replace("argument ", "", 1) if message.startswith("argument ") else message
+        )
         self.exit(2, f"inertiafit: error: {' '.join(message.split())}\n")
 
 
-def _number(option: str):
-    def parse(text: str) -> float:
-        try:
-            return float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-
-    return parse
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
 
 
 def _count(text: str) -> int:
@@ -39,11 +38,19 @@ def _count(text: str) -> int:
 
 
 def _add_common(p: argparse.ArgumentParser, default_out: str) -> None:
-    p.add_argument("--out", type=Path, default=Path(default_out),
-                   help=f"output folder, replaced whole (default: {default_out})")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path(default_out),
+        help=f"output folder, replaced whole (default: {default_out})",
+    )
     p.add_argument("--seed", type=_count, default=0, help="seed of every random draw (default 0)")
-    p.add_argument("--hdi-prob", type=_number("--hdi-prob"), default=0.95,
-                   help="probability of the highest-density intervals (default 0.95)")
+    p.add_argument(
+        "--hdi-prob",
+        type=_number,
+        default=0.95,
+        help="probability of the highest-density intervals (default 0.95)",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -65,31 +72,75 @@ def build_parser() -> argparse.ArgumentParser:
         "joint and its gravitational moment. Writes summary.csv, identification.csv, "
         "comparison.csv, posterior.nc, corner.pdf and corner.png into --out.",
     )
-    fit.add_argument("--prior", required=True,
-                     help="a shipped prior by name (see 'inertiafit priors') or a TOML file")
-    fit.add_argument("--inertia", nargs="+", required=True, type=_number("--inertia"),
-                     metavar="V", help="moment of inertia about the joint, kg m^2 (trial values, "
-                     "or one value with --inertia-se or --inertia-sd/--inertia-n)")
-    fit.add_argument("--inertia-se", type=_number("--inertia-se"), metavar="S",
-                     help="standard error of a single inertia value, kg m^2")
-    fit.add_argument("--inertia-sd", type=_number("--inertia-sd"), metavar="S",
-                     help="SD of the trials behind a mean inertia value, kg m^2")
-    fit.add_argument("--inertia-n", type=_count, metavar="N",
-                     help="number of trials behind a mean inertia value")
-    fit.add_argument("--gravity-moment", nargs="+", required=True,
-                     type=_number("--gravity-moment"), metavar="V",
-                     help="gravitational moment m g x, N m (trial values or one value with an SE)")
-    fit.add_argument("--gravity-moment-se", type=_number("--gravity-moment-se"), metavar="S",
-                     help="standard error of a single gravity-moment value, N m")
-    fit.add_argument("--gravity-moment-sd", type=_number("--gravity-moment-sd"), metavar="S",
-                     help="SD of the trials behind a mean gravity moment, N m")
-    fit.add_argument("--gravity-moment-n", type=_count, metavar="N",
-                     help="number of trials behind a mean gravity moment")
-    fit.add_argument("--gravity", type=_number("--gravity"), default=9.81,
-                     help="gravitational acceleration, m/s^2 (default 9.81, as the paper)")
+    fit.add_argument(
+        "--prior",
+        required=True,
+        help="a shipped prior by name (see 'inertiafit priors') or a TOML file",
+    )
+    fit.add_argument(
+        "--inertia",
+        nargs="+",
+        required=True,
+        type=_number,
+        metavar="V",
+        help="moment of inertia about the joint, kg m^2 (trial values, "
+        "or one value with --inertia-se or --inertia-sd/--inertia-n)",
+    )
+    fit.add_argument(
+        "--inertia-se",
+        type=_number,
+        metavar="S",
+        help="standard error of a single inertia value, kg m^2",
+    )
+    fit.add_argument(
+        "--inertia-sd",
+        type=_number,
+        metavar="S",
+        help="SD of the trials behind a mean inertia value, kg m^2",
+    )
+    fit.add_argument(
+        "--inertia-n",
+        type=_count,
+        metavar="N",
+        help="number of trials behind a mean inertia value",
+    )
+    fit.add_argument(
+        "--gravity-moment",
+        nargs="+",
+        required=True,
+        type=_number,
+        metavar="V",
+        help="gravitational moment m g x, N m (trial values or one value with an SE)",
+    )
+    fit.add_argument(
+        "--gravity-moment-se",
+        type=_number,
+        metavar="S",
+        help="standard error of a single gravity-moment value, N m",
+    )
+    fit.add_argument(
+        "--gravity-moment-sd",
+        type=_number,
+        metavar="S",
+        help="SD of the trials behind a mean gravity moment, N m",
+    )
+    fit.add_argument(
+        "--gravity-moment-n",
+        type=_count,
+        metavar="N",
+        help="number of trials behind a mean gravity moment",
+    )
+    fit.add_argument(
+        "--gravity",
+        type=_number,
+        default=9.81,
+        help="gravitational acceleration, m/s^2 (default 9.81, as the paper)",
+    )
     _add_common(fit, "inertiafit-output")
 
-    demo = sub.add_parser("demo", help="the paper's elbow attachment and 3 kg disk from its numbers")
+    demo = sub.add_parser(
+        "demo", help="the paper's elbow attachment and 3 kg disk from its numbers"
+    )
     _add_common(demo, "demo-output")
 
     sub.add_parser("priors", help="list the shipped priors")
@@ -132,8 +183,6 @@ def _priors(_args) -> int:
     for name in available_priors():
         print(load_prior(name).describe())
     return 0
-
-
 
 
 def main(argv: list[str] | None = None) -> int:

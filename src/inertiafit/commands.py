@@ -16,7 +16,7 @@ def baseline_for(prior: Prior, inertia: float, gravity_moment: float, gravity: f
     """The paper's multi-start least-squares answer (feasible-region mean) for these numbers."""
     from inertiafit.baseline import paper_baseline
 
-    res = paper_baseline(
+    return paper_baseline(
         inertia=inertia,
         gravity_moment=gravity_moment,
         nominal=[prior.nominal[p] for p in PARAMETERS],
@@ -24,7 +24,6 @@ def baseline_for(prior: Prior, inertia: float, gravity_moment: float, gravity: f
         upper=[prior.upper[p] for p in PARAMETERS],
         gravity=gravity,
     )
-    return res
 
 
 def comparison(post, prior: Prior, body: str, baseline, hdi_prob: float) -> pd.DataFrame:
@@ -62,8 +61,10 @@ def format_comparison(table: pd.DataFrame, prior: Prior, hdi_prob: float) -> str
     ref_label = prior.reference.get("label", "reference")
     pct = f"{100 * hdi_prob:g}% HDI"
     lines = [
-        f"{'parameter':<28}{'prior nominal':>14}{'posterior median':>18}  {pct:<22}"
-        f"{'paper baseline':>15}  {ref_label}"
+        (
+            f"{'parameter':<28}{'prior nominal':>14}{'posterior median':>18}  {pct:<22}"
+            f"{'paper baseline':>15}  {ref_label}"
+        )
     ]
     for _, r in table.iterrows():
         name = f"{r.parameter} [{r.unit}]"
@@ -79,11 +80,11 @@ def format_comparison(table: pd.DataFrame, prior: Prior, hdi_prob: float) -> str
 def write_fit_outputs(folder: Path, post, prior: Prior, baseline, hdi_prob: float) -> pd.DataFrame:
     """summary.csv, identification.csv, comparison.csv, posterior.nc, corner.pdf/.png."""
     post.write_summary(folder / "summary.csv", hdi_prob)
-    post.identification().to_csv(folder / "identification.csv", index=False,
-                                 float_format="%.8g", lineterminator="\n")
+    post.identification().to_csv(
+        folder / "identification.csv", index=False, float_format="%.8g", lineterminator="\n"
+    )
     table = comparison(post, prior, post.bodies[0], baseline, hdi_prob)
-    table.to_csv(folder / "comparison.csv", index=False, float_format="%.8g",
-                 lineterminator="\n")
+    table.to_csv(folder / "comparison.csv", index=False, float_format="%.8g", lineterminator="\n")
     post.save(folder / "posterior.nc")
     fig = post.corner()
     fig.savefig(folder / "corner.pdf")
@@ -137,8 +138,10 @@ def run_fit(
     echo(post.report(hdi_prob))
     echo("")
     echo(format_comparison(table, prior_obj, hdi_prob))
-    echo(f"\nwrote {Path(out)}/: summary.csv identification.csv comparison.csv posterior.nc "
-         "corner.pdf corner.png")
+    echo(
+        f"\nwrote {Path(out)}/: summary.csv identification.csv comparison.csv posterior.nc "
+        "corner.pdf corner.png"
+    )
     return post
 
 
@@ -180,8 +183,9 @@ def paper_cases() -> list[dict]:
     ]
 
 
-def run_paper_demo(*, out: str | Path = "demo-output", seed: int = 0, hdi_prob: float = 0.95,
-                   echo=print) -> None:
+def run_paper_demo(
+    *, out: str | Path = "demo-output", seed: int = 0, hdi_prob: float = 0.95, echo=print
+) -> None:
     """The paper's two bodies from its reported numbers (Son et al., section 3 and Tables 2-3)."""
     out = Path(out)
     for case in paper_cases():

@@ -45,7 +45,8 @@ def _observation_summary(model: Model) -> xr.Dataset:
 def _observed(model: Model) -> xr.Dataset:
     out = {}
     for obs_name in ("inertia", "gravity_moment"):
-        values, conds = [], []
+        values: list[float] = []
+        conds: list[str] = []
         for c in model.conditions:
             o = getattr(c, obs_name)
             if o is None:
@@ -70,8 +71,9 @@ def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> x
     coords = {"chain": np.arange(n_chain), "draw": np.arange(n_draw), "body": bodies}
     posterior = xr.Dataset(
         {
-            p: xr.DataArray(run.parameters[p], dims=("chain", "draw", "body"),
-                            attrs={"units": UNITS[p]})
+            p: xr.DataArray(
+                run.parameters[p], dims=("chain", "draw", "body"), attrs={"units": UNITS[p]}
+            )
             for p in REPORTED
         },
         coords=coords,
@@ -79,8 +81,12 @@ def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> x
     prior_rng = np.random.default_rng([seed, 2])
     pd_ = model.prior_draws(N_PRIOR_DRAWS, prior_rng)
     prior = xr.Dataset(
-        {p: xr.DataArray(pd_[p][None], dims=("chain", "draw", "body"), attrs={"units": UNITS[p]})
-         for p in REPORTED},
+        {
+            p: xr.DataArray(
+                pd_[p][None], dims=("chain", "draw", "body"), attrs={"units": UNITS[p]}
+            )
+            for p in REPORTED
+        },
         coords={"chain": [0], "draw": np.arange(N_PRIOR_DRAWS), "body": bodies},
     )
     terms = model.log_likelihood_terms(run.chain)
@@ -89,7 +95,8 @@ def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> x
         labels = [c.label for c in model.conditions if getattr(c, obs_name)]
         if labels:
             ll_vars[obs_name] = xr.DataArray(
-                terms[obs_name], dims=("chain", "draw", f"{obs_name}_condition"),
+                terms[obs_name],
+                dims=("chain", "draw", f"{obs_name}_condition"),
                 coords={f"{obs_name}_condition": labels},
             )
     log_likelihood = xr.Dataset(ll_vars, coords={"chain": coords["chain"], "draw": coords["draw"]})
@@ -123,9 +130,16 @@ def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> x
         "moves": run.settings.moves,
         "ess_min_target": float(run.settings.ess_min),
         "r_hat_max_target": float(run.settings.r_hat_max),
-        "priors": inputs_json({b: {"source": model.priors[b].source,
-                                   "description": model.priors[b].description,
-                                   "name": model.priors[b].name} for b in bodies}),
+        "priors": inputs_json(
+            {
+                b: {
+                    "source": model.priors[b].source,
+                    "description": model.priors[b].description,
+                    "name": model.priors[b].name,
+                }
+                for b in bodies
+            }
+        ),
         "inputs": inputs_json(inputs or {}),
         "sampled_coordinates": "log(m x), log(I) per body; psi = atan(x / rho) drawn exactly",
     }
@@ -223,15 +237,24 @@ def fit_body(
     """
     prior = load_prior(prior)
     obs_i = _evidence("inertia", inertia, inertia_se, inertia_sd, inertia_n)
-    obs_g = _evidence("gravity-moment", gravity_moment, gravity_moment_se, gravity_moment_sd,
-                      gravity_moment_n)
+    obs_g = _evidence(
+        "gravity-moment", gravity_moment, gravity_moment_se, gravity_moment_sd, gravity_moment_n
+    )
     model = Model({prior.name: prior}, [Condition((prior.name,), obs_i, obs_g)], gravity=gravity)
     inputs = {
         "prior": prior.name,
-        "inertia": {"center": obs_i.center, "scale": obs_i.scale, "df": obs_i.df,
-                    "values": list(obs_i.values)},
-        "gravity_moment": {"center": obs_g.center, "scale": obs_g.scale, "df": obs_g.df,
-                           "values": list(obs_g.values)},
+        "inertia": {
+            "center": obs_i.center,
+            "scale": obs_i.scale,
+            "df": obs_i.df,
+            "values": list(obs_i.values),
+        },
+        "gravity_moment": {
+            "center": obs_g.center,
+            "scale": obs_g.scale,
+            "df": obs_g.df,
+            "values": list(obs_g.values),
+        },
         "gravity": gravity,
     }
     return fit(model, seed=seed, settings=settings, inputs=inputs)

@@ -150,7 +150,9 @@ class Model:
                 if body not in index:
                     raise InputError(f"condition '{cond.label}': unknown body '{body}'")
                 self.membership[ci, index[body]] = 1.0
-        unused = [b for b, used in zip(self.bodies, self.membership.any(0), strict=True) if not used]
+        unused = [
+            b for b, used in zip(self.bodies, self.membership.any(0), strict=True) if not used
+        ]
         if unused:
             raise InputError(f"model: body '{unused[0]}' is in no condition")
         self._inertia = [(ci, c.inertia) for ci, c in enumerate(self.conditions) if c.inertia]
@@ -229,7 +231,9 @@ class Model:
             d = self.priors[body].sample(size, rng)
             for p in PARAMETERS:
                 cols[p].append(d[p])
-            cols["inertia"].append(d["mass"] * (d["radius_of_gyration"] ** 2 + d["com_distance"] ** 2))
+            cols["inertia"].append(
+                d["mass"] * (d["radius_of_gyration"] ** 2 + d["com_distance"] ** 2)
+            )
             cols["gravity_moment"].append(self.gravity * d["mass"] * d["com_distance"])
         return {k: np.stack(v, -1) for k, v in cols.items()}
 
@@ -277,8 +281,9 @@ class Model:
                     f"no (m, x, rho) in the box gives M_g = {g_c(cond):.4g} N m and "
                     f"I = {b0:.4g} kg m^2 ((M_g/g)^2/I = {m_min:.4g} kg)"
                 )
-            raise InputError(f"{where}: the prior box contains no solution for condition "
-                             f"'{cond.label}': {why}")
+            raise InputError(
+                f"{where}: the prior box contains no solution for condition '{cond.label}': {why}"
+            )
 
 
 def g_c(cond: Condition) -> float:

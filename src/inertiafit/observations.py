@@ -72,14 +72,21 @@ class Observation:
         arr = np.asarray(vals)
         sd = float(arr.std(ddof=1))
         if sd == 0:
-            raise InputError(f"{where}: the {len(vals)} values are identical; their spread is zero")
-        return cls(float(arr.mean()), sd / math.sqrt(len(vals)), len(vals) - 1.0, len(vals), tuple(vals))
+            raise InputError(
+                f"{where}: the {len(vals)} values are identical; their spread is zero"
+            )
+        return cls(
+            float(arr.mean()), sd / math.sqrt(len(vals)), len(vals) - 1.0, len(vals), tuple(vals)
+        )
 
     @classmethod
     def from_mean_se(cls, mean: float, se: float, *, where="value"):
         """A single value with a known standard error: a Gaussian."""
         return cls(
-            _positive_finite(mean, where), _positive_finite(se, f"{where} standard error"), math.inf, 1
+            _positive_finite(mean, where),
+            _positive_finite(se, f"{where} standard error"),
+            math.inf,
+            1,
         )
 
     @classmethod
@@ -104,7 +111,10 @@ class Observation:
             return -0.5 * z * z - math.log(self.scale) - 0.5 * math.log(2 * math.pi)
         nu = self.df
         const = (
-            gammaln((nu + 1) / 2) - gammaln(nu / 2) - 0.5 * math.log(nu * math.pi) - math.log(self.scale)
+            gammaln((nu + 1) / 2)
+            - gammaln(nu / 2)
+            - 0.5 * math.log(nu * math.pi)
+            - math.log(self.scale)
         )
         return const - 0.5 * (nu + 1) * np.log1p(z * z / nu)
 

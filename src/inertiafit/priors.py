@@ -140,7 +140,9 @@ def _number(value: Any, where: str, field_name: str) -> float:
     return v
 
 
-def parse_prior(table: dict[str, Any], *, name: str, where: str, path: Path | None = None) -> Prior:
+def parse_prior(
+    table: dict[str, Any], *, name: str, where: str, path: Path | None = None
+) -> Prior:
     """Validate a prior table (from a TOML file or an inline manifest table).
 
     Parameters may be tables (``nominal``, ``unit``, ``spread`` or ``lower``/``upper``) or
@@ -218,7 +220,10 @@ def parse_prior(table: dict[str, Any], *, name: str, where: str, path: Path | No
     bad = sorted(set(reference) - _REFERENCE_KEYS)
     if bad:
         raise InputError(f"{where}: unknown key 'reference.{bad[0]}'")
-    ref = {k: (v if k == "label" else _number(v, where, f"reference.{k}")) for k, v in reference.items()}
+    ref = {
+        k: (v if k == "label" else _number(v, where, f"reference.{k}"))
+        for k, v in reference.items()
+    }
     for key in ("description", "source"):
         if not isinstance(table.get(key, ""), str):
             raise InputError(f"{where}: '{key}' must be a string")
@@ -255,7 +260,9 @@ def available_priors() -> dict[str, Path]:
     return found
 
 
-def load_prior(spec: str | Path | dict | Prior, *, base_dir: Path | None = None, name=None) -> Prior:
+def load_prior(
+    spec: str | Path | dict | Prior, *, base_dir: Path | None = None, name=None
+) -> Prior:
     """Find and read a prior: a shipped name, a path to a TOML file, or an inline table.
 
     Parameters

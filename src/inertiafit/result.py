@@ -71,13 +71,13 @@ class Posterior:
 
     def __init__(self, tree: xr.DataTree) -> None:
         self.tree = tree
-        self.bodies = tuple(str(b) for b in tree["posterior"]["body"].values)
+        self.bodies = tuple(str(b) for b in np.asarray(tree["posterior"]["body"]).tolist())
 
     # -- access ---------------------------------------------------------------------------
     @property
     def attrs(self) -> dict[str, Any]:
         """Provenance attributes of the root of the tree."""
-        return dict(self.tree.attrs)
+        return {str(k): v for k, v in self.tree.attrs.items()}
 
     @property
     def converged(self) -> bool:
@@ -255,7 +255,9 @@ class Posterior:
         ident = self.identification()
         rows = []
         for (_, r), (_, q) in zip(s.iterrows(), ident.iterrows(), strict=True):
-            rows.append({**r.to_dict(), "identified_by": q["identified_by"], "sd_ratio": q["sd_ratio"]})
+            rows.append(
+                {**r.to_dict(), "identified_by": q["identified_by"], "sd_ratio": q["sd_ratio"]}
+            )
         return rows
 
     def report(self, hdi_prob: float = 0.95) -> str:
@@ -268,8 +270,10 @@ class Posterior:
             f"{self.tree['posterior'].sizes['draw']} draws kept of {a.get('n_steps')} steps; "
             f"tau {float(a.get('tau_max', math.nan)):.1f} steps; seed {a.get('seed')}; "
             + ("converged" if self.converged else "NOT CONVERGED"),
-            f"{'body':<{width}}{'parameter':<28}{'median':>10}  {pct:<24}{'sd':>10}  "
-            f"{'R-hat':>6} {'ESS':>6}  identified by (post/prior SD)",
+            (
+                f"{'body':<{width}}{'parameter':<28}{'median':>10}  {pct:<24}{'sd':>10}  "
+                f"{'R-hat':>6} {'ESS':>6}  identified by (post/prior SD)"
+            ),
         ]
         for r in self._table_rows(hdi_prob):
             p = r["parameter"]
@@ -301,17 +305,31 @@ class Posterior:
         rows = self._table_rows(0.95)
         head = "".join(
             f"<th>{h}</th>"
-            for h in ("body", "parameter", "unit", "median", "95% HDI", "sd", "R-hat", "ESS bulk",
-                      "identified by")
+            for h in (
+                "body",
+                "parameter",
+                "unit",
+                "median",
+                "95% HDI",
+                "sd",
+                "R-hat",
+                "ESS bulk",
+                "identified by",
+            )
         )
         body = "".join(
             "<tr>"
             + "".join(
                 f"<td>{html.escape(str(v))}</td>"
                 for v in (
-                    r["body"], r["parameter"], UNITS[r["parameter"]], f"{r['median']:.4g}",
-                    f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]", f"{r['sd']:.3g}",
-                    f"{r['r_hat']:.3f}", f"{r['ess_bulk']:.0f}",
+                    r["body"],
+                    r["parameter"],
+                    UNITS[r["parameter"]],
+                    f"{r['median']:.4g}",
+                    f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]",
+                    f"{r['sd']:.3g}",
+                    f"{r['r_hat']:.3f}",
+                    f"{r['ess_bulk']:.0f}",
                     f"{r['identified_by']} ({r['sd_ratio']:.2f})",
                 )
             )

@@ -124,9 +124,12 @@ def _laplace(model: Model, rng: np.random.Generator) -> tuple[np.ndarray, np.nda
         v = model.log_prob(z)[0]
         return -v if np.isfinite(v) else 1e300
 
-    fits = [optimize.minimize(neg, b, method="Nelder-Mead",
-                              options={"xatol": 1e-9, "fatol": 1e-9, "maxiter": 4000})
-            for b in best]
+    fits = [
+        optimize.minimize(
+            neg, b, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-9, "maxiter": 4000}
+        )
+        for b in best
+    ]
     mode = min(fits, key=lambda f: f.fun).x
     if not np.isfinite(model.log_prob(mode)[0]):
         raise InputError("model: could not find a point of finite posterior density")
@@ -233,9 +236,7 @@ def _progress(enabled: bool, steps: int, max_steps: int, tau: float, ess: float,
         sys.stderr.flush()
 
 
-def sample(
-    model: Model, *, seed: int = 0, settings: SamplerSettings | None = None
-) -> SamplerRun:
+def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = None) -> SamplerRun:
     """Sample the posterior of ``model`` until converged.
 
     Parameters
@@ -267,8 +268,9 @@ def sample(
     rng = np.random.default_rng(seed)
     mode, cov = _laplace(model, rng)
     start = _initial_walkers(model, n_walkers, mode, cov, rng)
-    sampler = emcee.EnsembleSampler(n_walkers, d, model.log_prob, moves=_moves(s.moves, mode, cov),
-                                    vectorize=True)
+    sampler = emcee.EnsembleSampler(
+        n_walkers, d, model.log_prob, moves=_moves(s.moves, mode, cov), vectorize=True
+    )
     # emcee draws from a copy of numpy's global RandomState taken at construction: seed it.
     sampler.random_state = np.random.RandomState(seed).get_state()
     show = sys.stderr.isatty() if s.progress is None else s.progress
@@ -285,7 +287,7 @@ def sample(
         chain = sampler.get_chain()  # (steps, walkers, dim)
         tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
         tau_max = float(np.max(tau))
-        burn = min(int(math.ceil(s.burn_factor * tau_max)), sampler.iteration // 2)
+        burn = min(math.ceil(s.burn_factor * tau_max), sampler.iteration // 2)
         kept = np.swapaxes(chain[burn:], 0, 1)  # (walkers, draws, dim)
         params = model.parameters(kept, np.random.default_rng([seed, 1]))
         ess_min, rhat_max = np.inf, 0.0
