@@ -115,7 +115,7 @@ def _ks(ks: ArrayLike) -> NDArray[np.float64]:
 
 
 def _intersect(intervals, lo: float, hi: float) -> list[tuple[float, float]]:
-    out = [(max(a, lo), min(b, hi)) for a, b in intervals]
+    out = [(float(max(a, lo)), float(min(b, hi))) for a, b in intervals]
     return [(a, b) for a, b in out if a <= b]
 
 
