@@ -1,0 +1,500 @@
+"""The study manifest: a TOML file naming the bodies, their priors and the trial files.
+
+::
+
+    name = "Elbow attachment with 3 kg disk"
+    gravity = 9.81                      # optional (m/s^2)
+    [bodies.attachment]
+    prior = "biodex-elbow-attachment"   # a prior name, a path, or an inline table
+    [bodies.weight]
+    prior = { mass = 2.92, radius_of_gyration = 0.035, com_distance = 0.45, spread = 0.5 }
+    [defaults]                          # optional; each [[trials]] entry may override
+    format = "csv"
+    columns = { time = "t", torque = "moment" }
+    units = { time = "ms", torque = "ft*lbf" }
+    [[trials]]
+    file = "data/A_quasistatic.csv"     # relative to this file
+    bodies = ["attachment"]             # what is mounted: defines the condition
+    kind = "quasi-static"               # or "fast"
+    [[trials]]
+    file = "data/A_240_01.csv"
+    bodies = ["attachment"]
+    kind = "fast"
+    speed = 240                         # nominal deg/s; required for fast trials
+    window = [0.10, 0.22]               # optional manual acceleration window (s)
+    torque_sign = -1                    # optional, +1 or -1
+
+:func:`load_study` checks all of it and returns a :class:`Study`; every problem is one
+:class:`~inertiafit.errors.InputError` line naming the manifest and the key path, such as
+``trials[3].bodies`` (``trials[0]`` is the first ``[[trials]]`` entry).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import xarray as xr
+
+from inertiafit.errors import InputError
+from inertiafit.io.readers import (
+    available_formats,
+    check_calibration,
+    check_columns,
+    check_units,
+    read_trial,
+    reader_options,
+)
+from inertiafit.physics import GRAVITY
+
+KINDS = ("quasi-static", "fast")
+TOP_KEYS = ("name", "description", "gravity", "bodies", "defaults", "trials")
+BODY_KEYS = ("prior", "ideal")
+DEFAULT_KEYS = ("format", "columns", "units", "calibration", "torque_sign", "options")
+TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *DEFAULT_KEYS)
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """One rigid body of the study, as the manifest states it.
+
+    Attributes
+    ----------
+    name : str
+        The key under ``[bodies]``.
+    prior : str or dict
+        Raw prior: a shipped prior's name, a path, or an inline table; resolved elsewhere
+        (:func:`inertiafit.priors.load_prior`).
+    ideal : dict or None
+        Optional raw table of ideal-shape values to compare against.
+    """
+
+    name: str
+    prior: str | dict[str, Any]
+    ideal: dict[str, Any] | None = None
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """One ``[[trials]]`` entry with the ``[defaults]`` merged in.
+
+    Attributes
+    ----------
+    file : Path
+        Absolute path of the trial file (resolved relative to the manifest).
+    bodies : tuple of str
+        The mounted bodies, in the manifest's ``[bodies]`` order.
+    kind : {"quasi-static", "fast"}
+        Slow passive move (gives ``M_g``) or fast isokinetic move (gives ``I``).
+    speed : float or None
+        Nominal speed (deg/s); always set for fast trials.
+    format : str
+        Reader name (see :func:`inertiafit.io.available_formats`).
+    columns, units : dict of str to str
+        Channel -> column name / unit; the reader fills in its defaults for channels absent.
+    calibration : dict
+        Channel -> ``{"scale", "offset", "unit"}`` for the ``analog`` format.
+    window : tuple of float or None
+        Manual acceleration window ``(start, end)`` in seconds of the file's time, if given.
+    torque_sign : {1, -1}
+        Multiplies the torque when the trial is read (a device that reports the opposite
+        sign).
+    condition : str
+        The mounted body names joined by ``"+"``, in ``[bodies]`` order.
+    options : dict
+        Keyword options passed to the reader.
+    index : int
+        Position of the entry in ``[[trials]]`` (0-based), as used in error messages.
+    """
+
+    file: Path
+    bodies: tuple[str, ...]
+    kind: str
+    speed: float | None
+    format: str
+    columns: dict[str, str]
+    units: dict[str, str]
+    calibration: dict[str, dict[str, Any]]
+    window: tuple[float, float] | None
+    torque_sign: int
+    condition: str
+    options: dict[str, Any] = field(default_factory=dict)
+    index: int = 0
+
+    def read(self) -> xr.Dataset:
+        """Read this trial; see :func:`read_trial_spec`."""
+        return read_trial_spec(self)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A checked study manifest.
+
+    Attributes
+    ----------
+    name : str
+        The manifest's ``name`` (default: the file name without extension).
+    path : Path
+        Absolute path of the manifest.
+    base_dir : Path
+        Directory that relative trial paths are resolved against (the manifest's).
+    gravity : float
+        Gravitational acceleration (m/s^2), default 9.81.
+    bodies : dict of str to BodySpec
+        In manifest order.
+    trials : list of TrialSpec
+        In manifest order.
+    description : str
+        Free text, may be empty.
+    """
+
+    name: str
+    path: Path
+    base_dir: Path
+    gravity: float
+    bodies: dict[str, BodySpec]
+    trials: list[TrialSpec]
+    description: str = ""
+
+    @property
+    def conditions(self) -> dict[str, tuple[str, ...]]:
+        """Condition label -> mounted body names, in order of first appearance in trials."""
+        out: dict[str, tuple[str, ...]] = {}
+        for trial in self.trials:
+            out.setdefault(trial.condition, trial.bodies)
+        return out
+
+    def read(self, trial: TrialSpec | int) -> xr.Dataset:
+        """Read one trial (a TrialSpec or its index) into a Trial dataset.
+
+        See :func:`read_trial_spec`.
+        """
+        spec = self.trials[trial] if isinstance(trial, int) else trial
+        return read_trial_spec(spec)
+
+
+def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
+    """Read the trial a :class:`TrialSpec` describes, with its torque sign applied.
+
+    Parameters
+    ----------
+    spec : TrialSpec
+        From :func:`load_study`.
+
+    Returns
+    -------
+    xarray.Dataset
+        The Trial of :func:`inertiafit.io.read_trial`, torque multiplied by
+        ``spec.torque_sign``, with extra attrs ``condition``, ``kind``, ``torque_sign`` and,
+        when set, ``speed`` (deg/s) and ``window`` (s, two numbers).
+
+    Raises
+    ------
+    InputError
+        Every problem with the file (see :func:`inertiafit.io.read_trial`).
+    """
+    trial = read_trial(
+        spec.file,
+        format=spec.format,
+        columns=spec.columns or None,
+        units=spec.units or None,
+        calibration=spec.calibration or None,
+        **spec.options,
+    )
+    if spec.torque_sign != 1:
+        torque = trial["torque"]
+        trial["torque"] = torque.copy(data=spec.torque_sign * torque.values)
+    trial.attrs.update(condition=spec.condition, kind=spec.kind, torque_sign=spec.torque_sign)
+    if spec.speed is not None:
+        trial.attrs["speed"] = spec.speed
+    if spec.window is not None:
+        trial.attrs["window"] = list(spec.window)
+    return trial
+
+
+# --------------------------------------------------------------------------------------------
+
+
+def _fail(where: str, message: str) -> InputError:
+    return InputError(f"{where}: {message}")
+
+
+def _positive(value: object, *, where: str, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise _fail(where, f"expected a positive number ({unit}), got {value!r}")
+    if value <= 0:
+        raise _fail(where, f"must be positive ({unit}), got {value!r}")
+    return float(value)
+
+
+def _table(value: object, *, where: str, what: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise _fail(where, f"expected a table ({what}), got {value!r}")
+    return value
+
+
+def _torque_sign(value: object, *, where: str) -> int:
+    if isinstance(value, bool) or value not in (1, -1):
+        raise _fail(where, f"must be 1 or -1, got {value!r}")
+    return int(value)
+
+
+def _window(value: object, *, where: str) -> tuple[float, float]:
+    ok = (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        )
+    )
+    if not ok or not value[0] < value[1]:  # type: ignore[index]
+        raise _fail(where, f"expected two increasing numbers [start, end] in s, got {value!r}")
+    return float(value[0]), float(value[1])  # type: ignore[index]
+
+
+def _settings(table: Mapping[str, Any], *, where: str) -> dict[str, Any]:
+    """Check the reader settings shared by [defaults] and [[trials]] (keys present only)."""
+    out: dict[str, Any] = {}
+    if "format" in table:
+        fmt = table["format"]
+        if fmt not in available_formats():
+            raise _fail(
+                f"{where}.format",
+                f"unknown trial format {fmt!r} (formats: {', '.join(available_formats())})",
+            )
+        out["format"] = fmt
+    if "columns" in table:
+        out["columns"] = check_columns(table["columns"], where=f"{where}.columns")
+    if "units" in table:
+        out["units"] = check_units(table["units"], where=f"{where}.units")
+    if "calibration" in table:
+        check_calibration(table["calibration"], where=f"{where}.calibration")
+        out["calibration"] = {k: dict(v) for k, v in table["calibration"].items()}
+    if "torque_sign" in table:
+        out["torque_sign"] = _torque_sign(table["torque_sign"], where=f"{where}.torque_sign")
+    if "options" in table:
+        out["options"] = dict(
+            _table(table["options"], where=f"{where}.options", what="reader option = value")
+        )
+    return out
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and check a study manifest.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML manifest; trial paths in it are relative to its directory.
+
+    Returns
+    -------
+    Study
+        Bodies and trials in manifest order, defaults merged into every trial.
+
+    Raises
+    ------
+    InputError
+        One line naming the manifest and the key path: a TOML syntax error (with its line),
+        an unknown key, a missing trial file, an unknown body, a body without prior, a bad
+        ``kind``, ``speed``, ``window`` or ``torque_sign``, an unknown format, unit or
+        option, no trials, or a condition with fast trials but no quasi-static one.
+    """
+    path = Path(path).expanduser().resolve()
+    where = str(path)
+    if not path.is_file():
+        raise _fail(where, "study manifest not found")
+    try:
+        with path.open("rb") as handle:
+            doc = tomllib.load(handle)
+    except tomllib.TOMLDecodeError as err:
+        raise _fail(where, f"TOML syntax error: {err}") from None
+    except UnicodeDecodeError as err:
+        raise _fail(where, f"not a UTF-8 text file ({err.reason})") from None
+
+    for key in doc:
+        if key not in TOP_KEYS:
+            raise _fail(
+                f"{where}: {key}", f"unknown top-level key (allowed: {', '.join(TOP_KEYS)})"
+            )
+    name = doc.get("name", path.stem)
+    if not isinstance(name, str):
+        raise _fail(f"{where}: name", f"expected a string, got {name!r}")
+    description = doc.get("description", "")
+    if not isinstance(description, str):
+        raise _fail(f"{where}: description", f"expected a string, got {description!r}")
+    gravity = _positive(doc.get("gravity", GRAVITY), where=f"{where}: gravity", unit="m/s^2")
+
+    bodies = _bodies(doc, where=where)
+    raw_defaults = _table(
+        doc.get("defaults", {}), where=f"{where}: defaults", what="reader settings"
+    )
+    for key in raw_defaults:
+        if key not in DEFAULT_KEYS:
+            raise _fail(
+                f"{where}: defaults.{key}", f"unknown key (allowed: {', '.join(DEFAULT_KEYS)})"
+            )
+    defaults = _settings(raw_defaults, where=f"{where}: defaults")
+
+    raw_trials = doc.get("trials")
+    if raw_trials is None or raw_trials == []:
+        raise _fail(
+            f"{where}: trials", "no trials; add [[trials]] entries with file, bodies, kind"
+        )
+    if not isinstance(raw_trials, list):
+        raise _fail(f"{where}: trials", "expected [[trials]] entries (an array of tables)")
+    order = list(bodies)
+    trials = [
+        _trial(entry, i, defaults=defaults, order=order, base=path.parent, where=where)
+        for i, entry in enumerate(raw_trials)
+    ]
+
+    seen: dict[Path, int] = {}
+    for trial in trials:
+        if trial.file in seen:
+            raise _fail(
+                f"{where}: trials[{trial.index}].file",
+                f"{trial.file} is already trials[{seen[trial.file]}]; each recording counts once",
+            )
+        seen[trial.file] = trial.index
+    for condition in dict.fromkeys(t.condition for t in trials):
+        members = [t for t in trials if t.condition == condition]
+        fast = [t.index for t in members if t.kind == "fast"]
+        if fast and not any(t.kind == "quasi-static" for t in members):
+            listed = ", ".join(f"trials[{i}]" for i in fast[:3]) + (
+                ", ..." if len(fast) > 3 else ""
+            )
+            raise _fail(
+                f"{where}: trials",
+                f"condition '{condition}' has fast trials ({listed}) but no quasi-static trial; "
+                'add one with kind = "quasi-static" (it gives the gravitational moment)',
+            )
+    return Study(
+        name=name,
+        path=path,
+        base_dir=path.parent,
+        gravity=gravity,
+        bodies=bodies,
+        trials=trials,
+        description=description,
+    )
+
+
+def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
+    raw = doc.get("bodies")
+    if not raw:
+        raise _fail(f"{where}: bodies", "no bodies; add a [bodies.<name>] table with a prior")
+    raw = _table(raw, where=f"{where}: bodies", what="[bodies.<name>] tables")
+    bodies = {}
+    for name, raw_entry in raw.items():
+        here = f"{where}: bodies.{name}"
+        entry = _table(raw_entry, where=here, what="prior = ...")
+        for key in entry:
+            if key not in BODY_KEYS:
+                raise _fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(BODY_KEYS)})")
+        if "prior" not in entry:
+            raise _fail(
+                f"{here}.prior",
+                "missing; give a prior name, a path to a prior file, or an inline table",
+            )
+        prior = entry["prior"]
+        if not (isinstance(prior, str) and prior.strip()) and not isinstance(prior, dict):
+            raise _fail(
+                f"{here}.prior",
+                f"expected a prior name or path (a string) or an inline table, got {prior!r}",
+            )
+        ideal = entry.get("ideal")
+        if ideal is not None:
+            ideal = _table(ideal, where=f"{here}.ideal", what="ideal-shape values")
+        bodies[name] = BodySpec(name=name, prior=prior, ideal=ideal)
+    return bodies
+
+
+def _trial(
+    entry: object,
+    i: int,
+    *,
+    defaults: Mapping[str, Any],
+    order: list[str],
+    base: Path,
+    where: str,
+) -> TrialSpec:
+    here = f"{where}: trials[{i}]"
+    entry = _table(entry, where=here, what="file, bodies, kind, ...")
+    for key in entry:
+        if key not in TRIAL_KEYS:
+            raise _fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(TRIAL_KEYS)})")
+
+    if "file" not in entry:
+        raise _fail(f"{here}.file", "missing (the trial file, relative to the manifest)")
+    if not isinstance(entry["file"], str) or not entry["file"].strip():
+        raise _fail(f"{here}.file", f"expected a path (a string), got {entry['file']!r}")
+    file = (base / Path(entry["file"]).expanduser()).resolve()
+    if not file.is_file():
+        raise _fail(f"{here}.file", f"file not found: {file}")
+
+    names = entry.get("bodies")
+    if names is None:
+        raise _fail(f"{here}.bodies", "missing (the list of mounted bodies)")
+    if isinstance(names, str):
+        names = [names]
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+        raise _fail(f"{here}.bodies", f"expected a non-empty list of body names, got {names!r}")
+    for n in names:
+        if n not in order:
+            raise _fail(f"{here}.bodies", f"unknown body {n!r} (bodies: {', '.join(order)})")
+    if len(set(names)) != len(names):
+        raise _fail(f"{here}.bodies", f"a body is listed twice: {names!r}")
+    bodies = tuple(b for b in order if b in names)
+
+    kind = entry.get("kind")
+    if kind not in KINDS:
+        raise _fail(f"{here}.kind", f'expected "quasi-static" or "fast", got {kind!r}')
+    speed = entry.get("speed")
+    if speed is None and kind == "fast":
+        raise _fail(f"{here}.speed", "missing; a fast trial needs its nominal speed in deg/s")
+    if speed is not None:
+        speed = _positive(speed, where=f"{here}.speed", unit="deg/s")
+    window = _window(entry["window"], where=f"{here}.window") if "window" in entry else None
+
+    own = _settings(entry, where=here)
+    fmt = own.get("format", defaults.get("format", "csv"))
+    merged: dict[str, dict[str, Any]] = {}
+    for key in ("columns", "units", "calibration", "options"):
+        merged[key] = {**defaults.get(key, {}), **own.get(key, {})}
+    if fmt == "analog":
+        for channel in ("angle", "velocity", "torque"):
+            if channel not in merged["calibration"]:
+                raise _fail(
+                    f"{here}.calibration.{channel}",
+                    "missing; the analog format needs { scale, offset, unit } per channel "
+                    "(value = scale x volts + offset)",
+                )
+    allowed = reader_options(fmt)
+    for option in merged["options"]:
+        if option not in allowed:
+            listed = ", ".join(allowed) if allowed else "none"
+            raise _fail(
+                f"{here}.options.{option}",
+                f"unknown option for format '{fmt}' (options: {listed})",
+            )
+    return TrialSpec(
+        file=file,
+        bodies=bodies,
+        kind=kind,
+        speed=speed,
+        format=fmt,
+        columns=merged["columns"],
+        units=merged["units"],
+        calibration=merged["calibration"],
+        window=window,
+        torque_sign=own.get("torque_sign", defaults.get("torque_sign", 1)),
+        condition="+".join(bodies),
+        options=merged["options"],
+        index=i,
+    )
