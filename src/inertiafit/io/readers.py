@@ -289,6 +289,8 @@ def _resolve_units(
     for q in QUANTITIES:
         file_unit = declared.get(q)
         user_unit = given.get(q)
+        if user_unit is not None:
+            user_unit = canonical_unit(q, user_unit, where=f"{path}: units.{q}")
         if file_unit is not None:
             file_unit = canonical_unit(q, file_unit, where=f"{path}: {said_by}")
             if user_unit is not None and user_unit != file_unit:
