@@ -32,6 +32,8 @@ _LAZY = {
     "open_posterior": "inertiafit.result",
     "reference_posterior": "inertiafit.reference",
     "paper_baseline": "inertiafit.baseline",
+    "read_trial": "inertiafit.io",
+    "load_study": "inertiafit.io",
     "InputError": "inertiafit.errors",
     "ConvergenceWarning": "inertiafit.errors",
 }

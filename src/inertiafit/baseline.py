@@ -90,7 +90,7 @@ def _triple(value: Any, name: str) -> NDArray[np.float64]:
     return arr
 
 
-def _method(method: str) -> str:
+def _method(method: object) -> str:
     for known in METHODS:
         if isinstance(method, str) and method.lower() == known.lower():
             return known
