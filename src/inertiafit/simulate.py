@@ -1,0 +1,685 @@
+"""Synthetic dynamometer trials and studies with a known truth.
+
+Every trial follows the rigid-body model of ``DESIGN.md``::
+
+    tau(t) = I alpha(t) + M_g sin(theta(t) + phi) + c
+
+sampled at 1 kHz by default, with the imperfections of a real recording: a trapezoidal velocity
+profile (uniform acceleration up to the preset speed, an optional small isokinetic overshoot,
+uniform deceleration), a small servo ripple on the velocity, Gaussian torque and velocity
+noise, a slowly drifting torque disturbance, an angle quantised like a device's encoder, a
+constant offset ``c`` and a phase ``phi`` between the device's angle zero and the gravity
+vertical.
+
+- :func:`simulate_trial` makes one Trial (``xarray.Dataset``, SI units);
+- :func:`simulate_study` writes a whole study (CSV files and a ``study.toml`` manifest);
+- :func:`paper_study` writes the experiment of Son et al. (62 trials).
+
+Seeding: every function takes a seed or a :class:`numpy.random.Generator`; the same seed gives
+the same files, byte for byte. :func:`simulate_study` gives each trial its own child seed
+(:class:`numpy.random.SeedSequence`), so adding a speed does not change the other trials.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import signal
+
+from inertiafit.physics import GRAVITY
+from inertiafit.physics import gravity_moment as _gravity_moment
+from inertiafit.physics import inertia as _inertia
+
+#: Newton metres per foot pound-force (exact by definition).
+FT_LBF = 1.3558179483314004
+
+_DEG = math.pi / 180.0
+KINDS = ("quasi-static", "fast")
+
+_TIME_FACTORS = {"s": 1.0, "ms": 1e3}
+_ANGLE_FACTORS = {"deg": 1.0 / _DEG, "rad": 1.0}
+_TORQUE_FACTORS = {"N*m": 1.0, "ft*lbf": 1.0 / FT_LBF}
+_VELOCITY_UNITS = {"deg": "deg/s", "rad": "rad/s"}
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Imperfections of a simulated recording (SI units).
+
+    Attributes
+    ----------
+    torque_sd : float
+        Standard deviation of white torque noise (N m). A Biodex analog torque output read on
+        its +-64 ft lbf range has 15-35 mV noise at 78.1 mV per ft lbf, 0.25-0.6 N m.
+    velocity_sd : float
+        Standard deviation of white velocity noise (rad/s); default 0.5 deg/s.
+    ripple : float
+        Relative amplitude of the servo's sinusoidal velocity ripple (0.005 = 0.5 % of the
+        instantaneous speed). It is real motion: the torque contains its ``I alpha``.
+    ripple_frequency : float
+        Frequency of the ripple (Hz); its phase is random per trial.
+    angle_step : float
+        Quantum of the angle channel (rad); default 0.1 deg. ``0`` leaves the angle exact.
+    drift_sd : float
+        Standard deviation of a slowly drifting torque disturbance (N m): a stationary AR(1)
+        process standing for friction, cable drag and sensor drift. It makes the residuals of
+        a quasi-static fit autocorrelated.
+    drift_time : float
+        Correlation time of the drift (s).
+    trial_offset_sd : float
+        Standard deviation of a per-trial shift of the offset ``c`` (N m), drawn once per
+        fast trial: the sensor zero and the friction are not the same in every trial. It is
+        the largest source of trial-to-trial scatter of the inertia (``shift / alpha``).
+    """
+
+    torque_sd: float = 0.4
+    velocity_sd: float = 0.5 * _DEG
+    ripple: float = 0.005
+    ripple_frequency: float = 10.0
+    angle_step: float = 0.1 * _DEG
+    drift_sd: float = 0.03
+    drift_time: float = 0.2
+    trial_offset_sd: float = 0.0
+
+    @classmethod
+    def none(cls) -> Noise:
+        """No noise at all: exact channels (useful to test the processing arithmetic)."""
+        return cls(0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 0.5, 0.0)
+
+    @classmethod
+    def paper(cls) -> Noise:
+        """Noise with a trial-to-trial scatter like the paper's attachment (SD 0.017 kg m^2).
+
+        The channel noise alone gives a per-trial SD of the inertia near 0.001 kg m^2; the
+        paper's 0.017 kg m^2 at 35 rad/s^2 needs a per-trial torque shift of about 0.6 N m.
+        """
+        return cls(trial_offset_sd=0.6)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """The commanded passive move.
+
+    Attributes
+    ----------
+    start, end : float
+        Angles (rad) where the move starts and ends; the paper's range is 0 to 90 deg.
+    acceleration : float
+        Uniform acceleration and deceleration of the servo (rad/s^2); default 2000 deg/s^2,
+        which reaches 300 deg/s in 0.15 s.
+    overshoot : float
+        Relative isokinetic overshoot after the ramp (0.05 = 5 % above the preset speed), a
+        half-sine bump of duration ``overshoot_time``; 0 for none.
+    overshoot_time : float
+        Duration of the overshoot bump (s).
+    rest : float
+        Time at rest before and after the move (s).
+    """
+
+    start: float = 0.0
+    end: float = 90.0 * _DEG
+    acceleration: float = 2000.0 * _DEG
+    overshoot: float = 0.0
+    overshoot_time: float = 0.04
+    rest: float = 0.2
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body's true inertial parameters (SI units)."""
+
+    mass: float
+    radius_of_gyration: float
+    com_distance: float
+
+    @property
+    def inertia(self) -> float:
+        """Moment of inertia about the joint (kg m^2)."""
+        return float(_inertia(self.mass, self.radius_of_gyration, self.com_distance))
+
+    def gravity_moment(self, gravity: float = GRAVITY) -> float:
+        """Largest gravitational moment ``m g x`` (N m)."""
+        return float(_gravity_moment(self.mass, self.com_distance, gravity))
+
+
+@dataclass(frozen=True)
+class _Profile:
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    ramp_start: float
+    ramp_end: float
+    peak_speed: float
+    extras: dict[str, float] = field(default_factory=dict)
+
+
+def _profile(
+    t: np.ndarray, speed: float, motion: Motion, ripple: float, ripple_frequency: float, phase
+) -> _Profile:
+    """Nominal trapezoidal velocity with ripple; speed (rad/s) > 0, direction from the motion."""
+    distance = abs(motion.end - motion.start)
+    direction = 1.0 if motion.end >= motion.start else -1.0
+    a = motion.acceleration
+    v = speed
+    overshoot = motion.overshoot
+    t_over = motion.overshoot_time
+    bump = overshoot * v * 2.0 * t_over / math.pi
+    t_ramp = v / a
+    t_flat = (distance - v * v / a - bump) / v
+    if overshoot and t_flat < t_over:
+        overshoot, bump = 0.0, 0.0
+        t_flat = (distance - v * v / a) / v
+    if t_flat < 0.0:  # too short a range for this speed: triangular profile
+        v = math.sqrt(a * distance)
+        t_ramp, t_flat = v / a, 0.0
+    t0 = motion.rest
+    tau = t - t0
+    up = (tau >= 0) & (tau < t_ramp)
+    flat = (tau >= t_ramp) & (tau < t_ramp + t_flat)
+    down = (tau >= t_ramp + t_flat) & (tau < 2 * t_ramp + t_flat)
+    vel = np.zeros_like(t)
+    acc = np.zeros_like(t)
+    vel[up] = a * tau[up]
+    acc[up] = a
+    vel[flat] = v
+    vel[down] = v - a * (tau[down] - t_ramp - t_flat)
+    acc[down] = -a
+    if overshoot:
+        s = tau - t_ramp
+        bumping = (s >= 0) & (s < t_over)
+        w = math.pi / t_over
+        vel[bumping] += overshoot * v * np.sin(w * s[bumping])
+        acc[bumping] += overshoot * v * w * np.cos(w * s[bumping])
+    if ripple:
+        w = 2.0 * math.pi * ripple_frequency
+        factor = 1.0 + ripple * np.sin(w * t + phase)
+        acc = acc * factor + vel * ripple * w * np.cos(w * t + phase)
+        vel = vel * factor
+    return _Profile(
+        velocity=direction * vel,
+        acceleration=direction * acc,
+        ramp_start=t0,
+        ramp_end=t0 + t_ramp,
+        peak_speed=v,
+        extras={"motion_end": t0 + 2 * t_ramp + t_flat},
+    )
+
+
+def _ar1(rng: np.random.Generator, n: int, sd: float, rho: float) -> np.ndarray:
+    """Stationary AR(1) noise of standard deviation ``sd`` and lag-one correlation ``rho``."""
+    if sd == 0.0 or n == 0:
+        return np.zeros(n)
+    e = rng.standard_normal(n)
+    zi = np.array([rho * e[0] / math.sqrt(1.0 - rho * rho)])  # start in the stationary law
+    e[0] = 0.0
+    x, _ = signal.lfilter([1.0], [1.0, -rho], e, zi=zi)
+    return sd * math.sqrt(1.0 - rho * rho) * x
+
+
+def _dataset(
+    time: np.ndarray,
+    angle: np.ndarray,
+    velocity: np.ndarray,
+    torque: np.ndarray,
+    *,
+    source: str,
+    rate: float,
+    attrs: Mapping[str, Any],
+) -> xr.Dataset:
+    """A Trial with exactly the layout of :func:`inertiafit.io.make_trial`."""
+    long = {
+        "angle": "angle of the dynamometer shaft",
+        "velocity": "angular velocity of the shaft",
+        "torque": "moment measured at the shaft",
+    }
+    units = {"angle": "rad", "velocity": "rad/s", "torque": "N m"}
+    data = {"angle": angle, "velocity": velocity, "torque": torque}
+    return xr.Dataset(
+        {
+            q: ("time", np.asarray(v, dtype=np.float64), {"units": units[q], "long_name": long[q]})
+            for q, v in data.items()
+        },
+        coords={"time": ("time", time, {"units": "s", "long_name": "time"})},
+        attrs={"source": source, "sampling_rate": float(rate), "format": "simulated", **attrs},
+    )
+
+
+def simulate_trial(
+    *,
+    inertia: float,
+    gravity_moment: float,
+    kind: str = "fast",
+    speed_deg_s: float | None = None,
+    phi: float = 0.0,
+    offset: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+    rate: float = 1000.0,
+    noise: Noise | None = None,
+    motion: Motion | None = None,
+    source: str = "simulated",
+) -> xr.Dataset:
+    """Simulate one passive dynamometer trial of a rigid body.
+
+    Parameters
+    ----------
+    inertia : float
+        Moment of inertia about the joint, summed over the mounted bodies (kg m^2).
+    gravity_moment : float
+        Largest gravitational moment ``M_g``, summed over the mounted bodies (N m).
+    kind : {"fast", "quasi-static"}
+        A fast isokinetic move, or a quasi-static one (default speed 1 deg/s).
+    speed_deg_s : float, optional
+        Preset speed (deg/s); default 1 for quasi-static and 240 for fast trials.
+    phi : float
+        Angle between the device's zero and the gravity vertical (rad).
+    offset : float
+        Constant torque offset ``c`` (N m).
+    rng : numpy.random.Generator or int, optional
+        Random source or seed.
+    rate : float
+        Sampling rate (Hz).
+    noise : Noise, optional
+        Imperfections; default :class:`Noise` ().
+    motion : Motion, optional
+        Range, acceleration, overshoot and rest; default :class:`Motion` () (0 to 90 deg).
+    source : str
+        Recorded in ``attrs["source"]``.
+
+    Returns
+    -------
+    xarray.Dataset
+        A Trial (``time`` s; ``angle`` rad, ``velocity`` rad/s, ``torque`` N m) with extra
+        attrs: ``kind``, ``speed`` (deg/s), ``true_inertia``, ``true_gravity_moment``,
+        ``true_phi``, ``true_offset`` (including any per-trial shift), ``ramp_start`` and
+        ``ramp_end`` (s, the simulated uniform-acceleration period).
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is unknown or ``speed_deg_s``, ``rate`` is not positive.
+    """
+    if kind not in KINDS:
+        msg = f"kind must be one of {KINDS}, got {kind!r}"
+        raise ValueError(msg)
+    if speed_deg_s is None:
+        speed_deg_s = 1.0 if kind == "quasi-static" else 240.0
+    if not speed_deg_s > 0 or not rate > 0:
+        msg = f"speed_deg_s and rate must be positive, got {speed_deg_s!r}, {rate!r}"
+        raise ValueError(msg)
+    rng = np.random.default_rng(rng)
+    noise = Noise() if noise is None else noise
+    motion = Motion() if motion is None else motion
+    speed = speed_deg_s * _DEG
+
+    distance = abs(motion.end - motion.start)
+    duration = 2 * motion.rest + distance / speed + speed / motion.acceleration
+    duration += motion.overshoot_time if motion.overshoot else 0.0
+    n = math.ceil(duration * rate) + 1
+    t = np.arange(n) / rate
+
+    profile = _profile(
+        t, speed, motion, noise.ripple, noise.ripple_frequency, rng.uniform(0, 2 * math.pi)
+    )
+    # Angle: the integral of the true velocity (trapezoid rule, exact for the linear ramps).
+    dt = 1.0 / rate
+    theta = np.empty(n)
+    theta[0] = motion.start
+    np.cumsum(0.5 * dt * (profile.velocity[1:] + profile.velocity[:-1]), out=theta[1:])
+    theta[1:] += motion.start
+
+    shift = rng.normal(0.0, noise.trial_offset_sd) if noise.trial_offset_sd else 0.0
+    rho = math.exp(-1.0 / (rate * noise.drift_time)) if noise.drift_time > 0 else 0.0
+    torque = (
+        inertia * profile.acceleration
+        + gravity_moment * np.sin(theta + phi)
+        + offset
+        + shift
+        + _ar1(rng, n, noise.drift_sd, rho)
+    )
+    if noise.torque_sd:
+        torque += rng.normal(0.0, noise.torque_sd, n)
+    velocity = profile.velocity.copy()
+    if noise.velocity_sd:
+        velocity += rng.normal(0.0, noise.velocity_sd, n)
+    angle = theta
+    if noise.angle_step:
+        angle = np.round(theta / noise.angle_step) * noise.angle_step
+
+    attrs = {
+        "kind": kind,
+        "speed": float(speed_deg_s),
+        "true_inertia": float(inertia),
+        "true_gravity_moment": float(gravity_moment),
+        "true_phi": float(phi),
+        "true_offset": float(offset + shift),
+        "ramp_start": float(profile.ramp_start),
+        "ramp_end": float(profile.ramp_end),
+    }
+    return _dataset(t, angle, velocity, torque, source=source, rate=rate, attrs=attrs)
+
+
+# ---------------------------------------------------------------------------------------------
+# Studies on disk
+# ---------------------------------------------------------------------------------------------
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(float(value)) if isinstance(value, float) else str(value)
+    if isinstance(value, str):
+        return json.dumps(value)  # a TOML basic string for the ASCII names we write
+    if isinstance(value, Mapping):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    if isinstance(value, Iterable):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    msg = f"cannot write {value!r} to TOML"
+    raise TypeError(msg)
+
+
+def _write_csv(path: Path, trial: xr.Dataset, angle_unit: str, torque_unit: str, time_unit: str):
+    columns = np.column_stack(
+        [
+            trial["time"].values * _TIME_FACTORS[time_unit],
+            trial["angle"].values * _ANGLE_FACTORS[angle_unit],
+            trial["velocity"].values * _ANGLE_FACTORS[angle_unit],
+            trial["torque"].values * _TORQUE_FACTORS[torque_unit],
+        ]
+    )
+    np.savetxt(
+        path,
+        columns,
+        fmt="%.10g",
+        delimiter=",",
+        header="time,angle,velocity,torque",
+        comments="",
+    )
+
+
+def _condition_labels(n: int) -> list[str]:
+    return [chr(ord("A") + i) if i < 26 else f"C{i}" for i in range(n)]
+
+
+def simulate_study(
+    out_dir: str | Path,
+    *,
+    bodies: Mapping[str, Sequence[float]],
+    conditions: Sequence[Sequence[str]],
+    speeds: Sequence[float] = (240.0, 270.0, 300.0),
+    trials_per_speed: int = 10,
+    seed: int | None = 0,
+    angle_unit: str = "deg",
+    torque_unit: str = "N*m",
+    time_unit: str = "s",
+    phi: float = 0.0,
+    offset: float = 0.0,
+    gravity: float = GRAVITY,
+    rate: float = 1000.0,
+    quasi_static_speed: float = 1.0,
+    noise: Noise | None = None,
+    motion: Motion | None = None,
+    priors: Mapping[str, str | Mapping[str, Any]] | None = None,
+    name: str = "Simulated study",
+) -> Path:
+    """Write a simulated study: one CSV per trial and a ``study.toml`` manifest.
+
+    For each condition (a tuple of mounted bodies) one quasi-static trial and
+    ``trials_per_speed`` fast trials at every speed are written to ``out_dir/data``; the
+    condition's inertia and gravity moment are the sums over its bodies. The true parameters
+    are written to ``out_dir/truth.toml`` (not read by the pipeline).
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder to write into (created; files of the same names are replaced).
+    bodies : mapping of str to (mass, radius_of_gyration, com_distance)
+        True parameters of each body (kg, m, m).
+    conditions : sequence of sequence of str
+        The bodies mounted in each condition, e.g. ``[("attachment",), ("attachment",
+        "weight")]``; conditions are labelled A, B, ... in file names.
+    speeds : sequence of float
+        Preset speeds of the fast trials (deg/s).
+    trials_per_speed : int
+        Fast trials per speed and condition.
+    seed : int, optional
+        Seed of the whole study.
+    angle_unit : {"deg", "rad"}
+        Unit of the angle (and, per second, the velocity) columns.
+    torque_unit : {"N*m", "ft*lbf"}
+        Unit of the torque column.
+    time_unit : {"s", "ms"}
+        Unit of the time column.
+    phi, offset : float
+        Device phase (rad) and torque offset (N m), the same in every trial.
+    gravity : float
+        Gravitational acceleration (m/s^2), also written to the manifest.
+    rate : float
+        Sampling rate (Hz).
+    quasi_static_speed : float
+        Speed of the quasi-static trials (deg/s).
+    noise, motion : Noise, Motion, optional
+        Passed to :func:`simulate_trial`.
+    priors : mapping of str to (str or mapping), optional
+        Prior spec written for each named body instead of the default inline table centred
+        on the body's values: a prior name or path (str) or an inline table.
+    name : str
+        The manifest's ``name``.
+
+    Returns
+    -------
+    Path
+        Path of the written ``study.toml``.
+
+    Raises
+    ------
+    ValueError
+        On an unknown unit, a condition naming an unknown body, or no conditions.
+    """
+    for unit, allowed in (
+        (angle_unit, _ANGLE_FACTORS),
+        (torque_unit, _TORQUE_FACTORS),
+        (time_unit, _TIME_FACTORS),
+    ):
+        if unit not in allowed:
+            msg = f"unknown unit {unit!r}; expected one of {sorted(allowed)}"
+            raise ValueError(msg)
+    if not conditions:
+        msg = "no conditions"
+        raise ValueError(msg)
+    truth = {b: Body(*map(float, values)) for b, values in bodies.items()}
+    for condition in conditions:
+        for b in condition:
+            if b not in truth:
+                msg = f"condition {tuple(condition)} names unknown body {b!r}"
+                raise ValueError(msg)
+    priors = dict(priors or {})
+
+    out = Path(out_dir)
+    data = out / "data"
+    data.mkdir(parents=True, exist_ok=True)
+    labels = _condition_labels(len(conditions))
+    root = np.random.SeedSequence(seed)
+    condition_seeds = root.spawn(len(conditions))
+
+    lines = [f"name = {_toml_value(name)}", f"gravity = {_toml_value(gravity)}", ""]
+    for b, body in truth.items():
+        spec = priors.get(b) or {
+            "mass": body.mass,
+            "radius_of_gyration": body.radius_of_gyration,
+            "com_distance": body.com_distance,
+        }
+        lines += [f"[bodies.{b}]", f"prior = {_toml_value(spec)}", ""]
+    lines += [
+        "[defaults]",
+        'columns = { time = "time", angle = "angle", velocity = "velocity", torque = "torque" }',
+        "units = "
+        + _toml_value(
+            {
+                "time": time_unit,
+                "angle": angle_unit,
+                "velocity": _VELOCITY_UNITS[angle_unit],
+                "torque": torque_unit,
+            }
+        ),
+        "",
+    ]
+
+    for label, condition, cseed in zip(labels, conditions, condition_seeds, strict=True):
+        mounted = [truth[b] for b in condition]
+        i_total = sum(body.inertia for body in mounted)
+        mg_total = sum(body.gravity_moment(gravity) for body in mounted)
+        plan = [("quasi-static", quasi_static_speed, f"{label}_quasistatic.csv")]
+        plan += [
+            ("fast", float(speed), f"{label}_{speed:g}_{k + 1:02d}.csv")
+            for speed in speeds
+            for k in range(trials_per_speed)
+        ]
+        for (kind, speed, filename), tseed in zip(plan, cseed.spawn(len(plan)), strict=True):
+            trial = simulate_trial(
+                inertia=i_total,
+                gravity_moment=mg_total,
+                kind=kind,
+                speed_deg_s=speed,
+                phi=phi,
+                offset=offset,
+                rng=np.random.default_rng(tseed),
+                rate=rate,
+                noise=noise,
+                motion=motion,
+                source=filename,
+            )
+            _write_csv(data / filename, trial, angle_unit, torque_unit, time_unit)
+            lines += [
+                "[[trials]]",
+                f"file = {_toml_value('data/' + filename)}",
+                f"bodies = {_toml_value(list(condition))}",
+                f"kind = {_toml_value(kind)}",
+            ]
+            if kind == "fast":
+                lines.append(f"speed = {_toml_value(speed)}")
+            lines.append("")
+
+    manifest = out / "study.toml"
+    manifest.write_text("\n".join(lines), encoding="utf-8")
+    _write_truth(out / "truth.toml", truth, conditions, labels, gravity, phi, offset)
+    return manifest
+
+
+def _write_truth(path, truth, conditions, labels, gravity, phi, offset) -> None:
+    lines = [
+        "# True parameters of the simulated study (not read by the pipeline).",
+        f"gravity = {gravity!r}",
+        f"phi = {float(phi)!r}",
+        f"offset = {float(offset)!r}",
+        "",
+    ]
+    for b, body in truth.items():
+        lines += [
+            f"[bodies.{b}]",
+            f"mass = {body.mass!r}",
+            f"radius_of_gyration = {body.radius_of_gyration!r}",
+            f"com_distance = {body.com_distance!r}",
+            f"inertia = {body.inertia!r}",
+            f"gravity_moment = {body.gravity_moment(gravity)!r}",
+            "",
+        ]
+    for label, condition in zip(labels, conditions, strict=True):
+        mounted = [truth[b] for b in condition]
+        lines += [
+            f"[conditions.{label}]",
+            f"bodies = {_toml_value(list(condition))}",
+            f"inertia = {sum(b.inertia for b in mounted)!r}",
+            f"gravity_moment = {sum(b.gravity_moment(gravity) for b in mounted)!r}",
+            "",
+        ]
+    path.write_text("\n".join(lines), encoding="utf-8")
+
+
+#: True parameters used by :func:`paper_study` (kg, m, m): close to, not equal to, the nominal.
+PAPER_TRUTH = {
+    "attachment": Body(mass=2.85, radius_of_gyration=0.12, com_distance=0.24),
+    "weight": Body(mass=2.92, radius_of_gyration=0.0354, com_distance=0.45),
+}
+#: Nominal priors of the paper's ideal shapes (Tables 2 and 3), +-50 % boxes.
+PAPER_PRIORS = {
+    "attachment": {
+        "mass": 2.91,
+        "radius_of_gyration": 0.130,
+        "com_distance": 0.225,
+        "spread": 0.5,
+    },
+    "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45, "spread": 0.5},
+}
+
+
+def paper_study(
+    out_dir: str | Path,
+    *,
+    seed: int | None = 0,
+    noise: Noise | None = None,
+    phi: float = 0.0,
+    offset: float = 0.0,
+    **kwargs: Any,
+) -> Path:
+    """Write the experiment of Son et al.: attachment alone, then with the 3 kg disk.
+
+    Two conditions (``attachment``; ``attachment + weight``), each with one quasi-static trial
+    at 1 deg/s over 0-90 deg and ten fast trials at each of 240, 270 and 300 deg/s: 62 trials
+    at 1 kHz. The truth is :data:`PAPER_TRUTH`; the manifest's priors are the paper's ideal
+    values (:data:`PAPER_PRIORS`). The default noise is :meth:`Noise.paper`, whose
+    trial-to-trial scatter of the attachment's inertia is close to the paper's.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder to write into.
+    seed : int, optional
+        Seed.
+    noise : Noise, optional
+        Default :meth:`Noise.paper`.
+    phi, offset : float
+        Device phase (rad) and torque offset (N m).
+    **kwargs
+        Further keywords of :func:`simulate_study` (units, ``motion``, ``priors``...).
+
+    Returns
+    -------
+    Path
+        The manifest ``study.toml``.
+    """
+    bodies = {
+        b: (body.mass, body.radius_of_gyration, body.com_distance)
+        for b, body in PAPER_TRUTH.items()
+    }
+    kwargs.setdefault("priors", PAPER_PRIORS)
+    kwargs.setdefault("name", "Son et al.: elbow attachment with a 3 kg disk (simulated)")
+    return simulate_study(
+        out_dir,
+        bodies=bodies,
+        conditions=[("attachment",), ("attachment", "weight")],
+        seed=seed,
+        noise=Noise.paper() if noise is None else noise,
+        phi=phi,
+        offset=offset,
+        **kwargs,
+    )
+
+
+__all__ = [
+    "FT_LBF",
+    "PAPER_PRIORS",
+    "PAPER_TRUTH",
+    "Body",
+    "Motion",
+    "Noise",
+    "paper_study",
+    "simulate_study",
+    "simulate_trial",
+]
