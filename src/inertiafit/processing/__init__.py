@@ -1,0 +1,44 @@
+"""Per-trial processing: filter, gravity model, acceleration window, inertia, speed effect.
+
+The steps, in the order a study runs them (``docs/processing.md`` explains each choice):
+
+1. :func:`lowpass`: zero-lag Butterworth low-pass of torque and velocity (2nd order, 20 Hz)
+   and the angular acceleration as the derivative of the filtered velocity;
+2. :func:`fit_gravity`: ``M_g``, ``phi`` and the offset of a condition from its quasi-static
+   trial, with standard errors corrected for autocorrelated residuals (:class:`GravityFit`);
+3. :func:`find_window`: the uniform-acceleration window of a fast trial
+   (:class:`AccelerationWindow`), or a manual one;
+4. :func:`estimate_inertia`: the inertia of a fast trial by least squares and by the paper's
+   frame mean (:class:`InertiaEstimate`);
+5. :func:`speed_effect`: per-speed summaries, one-way ANOVA and Tukey HSD per condition.
+"""
+
+from __future__ import annotations
+
+from inertiafit.processing.filtering import lowpass, lowpass_array, sampling_rate
+from inertiafit.processing.gravity import (
+    GravityFit,
+    effective_sample_size,
+    fit_gravity,
+    fit_gravity_arrays,
+    integrated_autocorrelation_time,
+)
+from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
+from inertiafit.processing.speed import speed_effect
+from inertiafit.processing.window import AccelerationWindow, find_window
+
+__all__ = [
+    "AccelerationWindow",
+    "GravityFit",
+    "InertiaEstimate",
+    "effective_sample_size",
+    "estimate_inertia",
+    "find_window",
+    "fit_gravity",
+    "fit_gravity_arrays",
+    "integrated_autocorrelation_time",
+    "lowpass",
+    "lowpass_array",
+    "sampling_rate",
+    "speed_effect",
+]
