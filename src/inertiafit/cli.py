@@ -1,4 +1,4 @@
-"""Command line: ``inertiafit fit | demo | priors``.
+"""Command line: ``inertiafit fit | run | demo | priors``.
 
 The command line only parses arguments and calls the library. Bad input ends with one line on
 stderr (``inertiafit: error: ...``) and exit status 2, never a traceback.
@@ -138,8 +138,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_common(fit, "inertiafit-output")
 
+    run = sub.add_parser(
+        "run",
+        help="the whole pipeline on a study manifest and its trial files",
+        description="Read every trial of STUDY (a TOML manifest), fit the gravity model of each "
+        "condition, estimate the inertia of every fast trial, test the speed effect, sample the "
+        "joint posterior over every body and write trials.csv, speed_effect.csv, summary.csv, "
+        "identification.csv, comparison.csv, posterior.nc, corner-<body>.pdf/.png, "
+        "fast-trials-<condition>.pdf/.png, inertia-by-speed.pdf/.png and report.html into --out.",
+    )
+    run.add_argument("study", type=Path, metavar="STUDY", help="the study manifest (TOML)")
+    _add_common(run, "inertiafit-output")
+
     demo = sub.add_parser(
-        "demo", help="the paper's elbow attachment and 3 kg disk from its numbers"
+        "demo",
+        help="simulate the paper's experiment and run it end to end",
+        description="Simulate the experiment of Son et al. (elbow attachment alone and with a 3 kg "
+        "disk; 1 deg/s quasi-static; 240/270/300 deg/s x 10 fast trials; 1 kHz), write the trial "
+        "files and manifest into --out/study, run the whole pipeline on them, and fit the "
+        "paper's own published numbers beside it (--out/paper-numbers).",
     )
     _add_common(demo, "demo-output")
 
@@ -170,10 +187,17 @@ def _fit(args) -> int:
     return 0
 
 
-def _demo(args) -> int:
-    from inertiafit.commands import run_paper_demo
+def _run(args) -> int:
+    from inertiafit.study import run_study
 
-    run_paper_demo(out=args.out, seed=args.seed, hdi_prob=args.hdi_prob)
+    run_study(args.study, out=args.out, seed=args.seed, hdi_prob=args.hdi_prob)
+    return 0
+
+
+def _demo(args) -> int:
+    from inertiafit.commands import run_demo
+
+    run_demo(out=args.out, seed=args.seed, hdi_prob=args.hdi_prob)
     return 0
 
 
@@ -189,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``inertiafit`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    handlers = {"fit": _fit, "demo": _demo, "priors": _priors}
+    handlers = {"fit": _fit, "run": _run, "demo": _demo, "priors": _priors}
     try:
         if hasattr(args, "hdi_prob") and not 0 < args.hdi_prob < 1:
             raise InputError(f"--hdi-prob: expected a probability in (0, 1), got {args.hdi_prob}")

@@ -51,9 +51,12 @@ def plot_fast_trials(traces: Sequence[dict], *, title: str = "", fig=None):
         labelled.add(t["speed"])
         ax_v.plot(time, np.degrees(t["velocity"]), color=c, lw=0.7, alpha=0.7, label=label)
         ax_a.plot(time, np.degrees(t["acceleration"]), color=c, lw=0.7, alpha=0.7)
-        width = float(t["window"][1]) - float(t["window"][0])
+    for s in speeds:  # one band per speed: the median window of its trials
+        width = float(
+            np.median([t["window"][1] - t["window"][0] for t in traces if float(t["speed"]) == s])
+        )
         for ax in (ax_v, ax_a):
-            ax.axvspan(0.0, width, color="0.6", alpha=0.06, lw=0)
+            ax.axvspan(0.0, width, color=colour[s], alpha=0.10, lw=0)
     ax_v.set_ylabel("velocity [°/s]")
     ax_a.set_ylabel("acceleration [°/s²]")
     ax_a.set_xlabel("time from window start [s]")

@@ -54,7 +54,7 @@ def sampling_rate(trial: xr.Dataset) -> float:
 
 
 def design(
-    rate: float, *, cutoff: float = CUTOFF, order: int = ORDER, source: str = ""
+    rate: float, *, cutoff: float = CUTOFF, order: object = ORDER, source: str = ""
 ) -> NDArray:
     """Second-order sections of the Butterworth low-pass filter.
 

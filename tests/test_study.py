@@ -1,0 +1,240 @@
+"""The whole pipeline on simulated studies with known truth, and every bad input of `run`."""
+
+import re
+import shutil
+import tomllib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from inertiafit.cli import main
+from inertiafit.errors import InputError
+from inertiafit.result import SUMMARY_COLUMNS, open_posterior
+from inertiafit.simulate import simulate_study
+from inertiafit.study import TRIAL_COLUMNS, analyse_study, process_study
+
+TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
+PRIORS = {
+    "attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225},
+    "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
+}
+CONDITIONS = [("attachment",), ("attachment", "weight")]
+
+
+def truth_of(folder):
+    return tomllib.loads((folder / "truth.toml").read_text())
+
+
+def simulate(
+    folder, seed, *, units=("deg", "N*m", "s"), trials_per_speed=5, speeds=(240, 270, 300)
+):
+    return simulate_study(
+        folder,
+        bodies=TRUTH,
+        conditions=CONDITIONS,
+        speeds=speeds,
+        trials_per_speed=trials_per_speed,
+        seed=seed,
+        angle_unit=units[0],
+        torque_unit=units[1],
+        time_unit=units[2],
+        phi=0.2,
+        offset=1.5,
+        priors=PRIORS,
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("seed", "units"),
+    [(1, ("deg", "N*m", "s")), (2, ("rad", "ft*lbf", "ms")), (3, ("deg", "ft*lbf", "ms"))],
+)
+def test_pipeline_recovers_the_simulated_truth(tmp_path, seed, units):
+    manifest = simulate(tmp_path / "study", seed, units=units)
+    truth = truth_of(tmp_path / "study")
+    result = analyse_study(manifest, seed=seed)
+    trials = result.processed.trials
+    for label, cond in zip(("attachment", "attachment+weight"), ("A", "B"), strict=True):
+        fast = trials[(trials.condition == label) & (trials.kind == "fast")]
+        true_i = truth["conditions"][cond]["inertia"]
+        assert fast.inertia.mean() == pytest.approx(true_i, rel=0.02)
+        assert fast.inertia_frame_mean.mean() == pytest.approx(true_i, rel=0.05)
+        qs = trials[(trials.condition == label) & (trials.kind == "quasi-static")]
+        true_g = truth["conditions"][cond]["gravity_moment"]
+        assert qs.gravity_moment.iloc[0] == pytest.approx(true_g, rel=0.01)
+        assert qs.gravity_phase.iloc[0] == pytest.approx(0.2, abs=0.01)
+        assert qs.offset.iloc[0] == pytest.approx(1.5, abs=0.1)
+    post = result.posterior
+    assert post.converged
+    s = post.summary(0.95).set_index(["body", "parameter"])
+    inside = []
+    for body in ("attachment", "weight"):
+        for p in ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment"):
+            t = truth["bodies"][body][p]
+            inside.append(s.loc[(body, p), "hdi_lower"] <= t <= s.loc[(body, p), "hdi_upper"])
+    assert np.mean(inside) >= 0.8, inside
+    # The attachment's uncertainty reaches the weight: its inertia is not simply B - A.
+    assert (
+        s.loc[("weight", "inertia"), "sd"]
+        > s.loc[("attachment+weight" if False else "attachment", "inertia"), "sd"] * 0.5
+    )
+
+
+@pytest.fixture(scope="module")
+def small_study(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("small") / "study"
+    simulate(folder, 7, trials_per_speed=3, speeds=(240,))
+    return folder
+
+
+def test_run_writes_every_output(small_study, tmp_path):
+    out = tmp_path / "out"
+    assert main(["run", str(small_study / "study.toml"), "--out", str(out), "--seed", "3"]) == 0
+    names = {p.name for p in out.iterdir()}
+    expected = {
+        "trials.csv",
+        "speed_effect.csv",
+        "summary.csv",
+        "identification.csv",
+        "comparison.csv",
+        "posterior.nc",
+        "report.html",
+        "corner-attachment.pdf",
+        "corner-attachment.png",
+        "corner-weight.pdf",
+        "corner-weight.png",
+        "fast-trials-attachment.png",
+        "fast-trials-attachment+weight.pdf",
+        "inertia-by-speed.png",
+        "inertia-by-speed.pdf",
+    }
+    assert expected <= names
+    trials = pd.read_csv(out / "trials.csv")
+    assert list(trials.columns) == TRIAL_COLUMNS
+    assert len(trials) == 2 + 2 * 3
+    assert set(trials.condition) == {"attachment", "attachment+weight"}
+    assert trials.file.iloc[0].startswith("data/")
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary.columns) == SUMMARY_COLUMNS
+    assert len(summary) == 2 * 5
+    effect = pd.read_csv(out / "speed_effect.csv")
+    assert {"condition", "speed", "n", "mean", "sd", "F", "p"} <= set(effect.columns)
+    post = open_posterior(out / "posterior.nc")
+    assert post.bodies == ("attachment", "weight")
+    html = (out / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= 5
+    assert "http://" not in html
+    assert "https://" not in html
+
+
+def test_same_seed_same_summary(small_study, tmp_path):
+    for name in ("a", "b"):
+        assert main(["run", str(small_study / "study.toml"), "--out", str(tmp_path / name)]) == 0
+    assert (tmp_path / "a" / "summary.csv").read_bytes() == (
+        tmp_path / "b" / "summary.csv"
+    ).read_bytes()
+
+
+def _copy(small_study, tmp_path):
+    dst = tmp_path / "study"
+    shutil.copytree(small_study, dst)
+    return dst
+
+
+def _edit(path, func):
+    path.write_text(func(path.read_text()))
+
+
+def _edit_csv(path, func):
+    df = pd.read_csv(path)
+    func(df).to_csv(path, index=False)
+
+
+def _fast(folder):
+    return folder / "data" / "A_240_02.csv"
+
+
+BAD = {
+    "missing file": (lambda d: _fast(d).unlink(), r"A_240_02\.csv"),
+    "unknown body": (
+        lambda d: _edit(
+            d / "study.toml",
+            lambda t: t.replace(
+                'bodies = ["attachment", "weight"]', 'bodies = ["attachment", "arm"]', 1
+            ),
+        ),
+        r"unknown body 'arm'",
+    ),
+    "no quasi-static trial": (
+        lambda d: _edit(
+            d / "study.toml",
+            lambda t: "[[trials]]".join(
+                block for block in t.split("[[trials]]") if "B_quasistatic" not in block
+            ),
+        ),
+        r"quasi-static",
+    ),
+    "misnamed column": (
+        lambda d: _edit(_fast(d), lambda t: t.replace("torque", "moment", 1)),
+        r"A_240_02\.csv.*torque",
+    ),
+    "unknown unit": (
+        lambda d: _edit(
+            d / "study.toml", lambda t: t.replace('torque = "N*m"', 'torque = "kgf*m"')
+        ),
+        r"kgf\*m",
+    ),
+    "NaN": (
+        lambda d: _edit_csv(_fast(d), lambda f: f.assign(torque=f.torque.where(f.index != 50))),
+        r"A_240_02\.csv.*torque",
+    ),
+    "gap": (
+        lambda d: _edit_csv(_fast(d), lambda f: f.drop(index=range(100, 110))),
+        r"A_240_02\.csv.*(gap|step)",
+    ),
+    "time not increasing": (
+        lambda d: _edit_csv(
+            _fast(d), lambda f: f.assign(time=np.where(f.index == 80, 0.0, f.time))
+        ),
+        r"A_240_02\.csv.*(increas|monoton)",
+    ),
+    "no acceleration window": (
+        lambda d: _edit_csv(
+            _fast(d), lambda f: f.assign(velocity=240.0, angle=np.linspace(0, 90, len(f)))
+        ),
+        r"A_240_02\.csv.*window",
+    ),
+    "sampling rate": (
+        lambda d: _edit_csv(_fast(d), lambda f: f.iloc[::2]),
+        r"A_240_02\.csv.*sampling rate",
+    ),
+    "negative inertia": (
+        lambda d: _edit_csv(_fast(d), lambda f: f.assign(torque=-f.torque + 2 * 1.5)),
+        r"A_240_02\.csv.*torque_sign",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_study_input_is_one_line_exit_2_and_leaves_nothing(
+    small_study, tmp_path, capsys, case
+):
+    folder = _copy(small_study, tmp_path)
+    corrupt, match = BAD[case]
+    corrupt(folder)
+    out = tmp_path / "out"
+    assert main(["run", str(folder / "study.toml"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("inertiafit: error: ")
+    assert re.search(match, err), err
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]  # no temp left
+
+
+def test_process_study_can_be_used_alone(small_study):
+    processed = process_study(small_study / "study.toml")
+    assert set(processed.gravity) == {"attachment", "attachment+weight"}
+    assert len(processed.traces["attachment"]) == 3
+    with pytest.raises(InputError, match="not found"):
+        process_study(small_study / "nope.toml")
