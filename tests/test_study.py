@@ -238,3 +238,54 @@ def test_process_study_can_be_used_alone(small_study):
     assert len(processed.traces["attachment"]) == 3
     with pytest.raises(InputError, match="not found"):
         process_study(small_study / "nope.toml")
+
+
+@pytest.mark.slow
+def test_one_attachment_several_segments_share_its_uncertainty(tmp_path):
+    truth = {
+        "attachment": (2.85, 0.12, 0.24),
+        "forearm1": (1.45, 0.06, 0.20),
+        "forearm2": (1.60, 0.065, 0.21),
+    }
+    priors = {
+        "attachment": PRIORS["attachment"],
+        "forearm1": {"mass": 1.5, "radius_of_gyration": 0.07, "com_distance": 0.19},
+        "forearm2": {"mass": 1.5, "radius_of_gyration": 0.07, "com_distance": 0.19},
+    }
+    manifest = simulate_study(
+        tmp_path / "s",
+        bodies=truth,
+        conditions=[("attachment",), ("attachment", "forearm1"), ("attachment", "forearm2")],
+        speeds=(240, 300),
+        trials_per_speed=4,
+        seed=5,
+        phi=0.1,
+        offset=-0.8,
+        priors=priors,
+    )
+    result = analyse_study(manifest, seed=5)
+    post = result.posterior
+    assert post.converged
+    assert post.bodies == ("attachment", "forearm1", "forearm2")
+    s = post.summary(0.95).set_index(["body", "parameter"])
+    for body, (m, rho, x) in truth.items():
+        i_true = m * (rho**2 + x**2)
+        assert (
+            s.loc[(body, "inertia"), "hdi_lower"]
+            <= i_true
+            <= s.loc[(body, "inertia"), "hdi_upper"]
+        )
+        assert (
+            s.loc[(body, "gravity_moment"), "hdi_lower"]
+            <= m * 9.81 * x
+            <= s.loc[(body, "gravity_moment"), "hdi_upper"]
+        )
+    # A heavier attachment leaves less for each segment: their inertias are anti-correlated.
+    att = post.draws("attachment", "inertia").ravel()
+    for seg in ("forearm1", "forearm2"):
+        assert np.corrcoef(att, post.draws(seg, "inertia").ravel())[0, 1] < -0.3
+    # and through the attachment the two segments are positively correlated
+    r12 = np.corrcoef(
+        post.draws("forearm1", "inertia").ravel(), post.draws("forearm2", "inertia").ravel()
+    )[0, 1]
+    assert r12 > 0.1
