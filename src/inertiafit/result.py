@@ -182,9 +182,10 @@ class Posterior:
         quantiles: tuple[float, ...] = (0.16, 0.5, 0.84),
         prior_box: bool = True,
         fig=None,
+        width: str | float = "double",
         **corner_kwargs,
     ):
-        """Corner plot of one body's posterior.
+        """Corner plot of one body's posterior, in the house style of :mod:`inertiafit.plots`.
 
         Parameters
         ----------
@@ -199,9 +200,13 @@ class Posterior:
             Quantiles marked on the 1-D histograms.
         prior_box : bool
             Set the axes of ``mass``, ``com_distance`` and ``radius_of_gyration`` to the prior
-            bounds, so one sees where the posterior sits inside the box.
+            bounds, so one sees where the posterior sits inside the box; the box edges are
+            drawn dashed (on the frame unless ``range=`` widens the axes) and the prior's
+            marginals in grey on the diagonal.
         fig : matplotlib.figure.Figure, optional
             Figure to draw into (a new one, not managed by pyplot, by default).
+        width : {"single", "double"} or float
+            Width and height of a new figure: 3.5 in, 7.0 in or inches.
         **corner_kwargs
             Passed on to :func:`corner.corner`.
 
@@ -209,45 +214,37 @@ class Posterior:
         -------
         matplotlib.figure.Figure
         """
-        import corner
-        from matplotlib.figure import Figure
+        from inertiafit.plots import corner_figure
 
         if body is None:
             if len(self.bodies) != 1:
                 raise ValueError(f"choose a body: one of {', '.join(self.bodies)}")
             body = self.bodies[0]
-        data = np.column_stack([self.draws(body, p).ravel() for p in parameters])
-        ranges = []
-        for i, p in enumerate(parameters):
-            if prior_box and p in PARAMETERS:
-                ranges.append(self._prior_box(body, p))
-            else:
-                lo, hi = np.quantile(data[:, i], [0.001, 0.999])
+        columns = [self.draws(body, p).ravel() for p in parameters]
+        ranges, boxes = [], []
+        for p, x in zip(parameters, columns, strict=True):
+            box = self._prior_box(body, p) if prior_box and p in PARAMETERS else None
+            if box is None:
+                lo, hi = np.quantile(x, [0.001, 0.999])
                 pad = 0.1 * (hi - lo)
                 ranges.append((float(lo - pad), float(hi + pad)))
-        if fig is None:
-            n = len(parameters)
-            fig = Figure(figsize=(1.6 * n + 0.6, 1.6 * n + 0.6), dpi=100)
-        kwargs = {
-            "labels": [LABELS[p] for p in parameters],
-            "titles": [SYMBOLS[p] for p in parameters],
-            "quantiles": list(quantiles),
-            "show_titles": True,
-            "title_fmt": ".3g",
-            "title_kwargs": {"fontsize": 9},
-            "label_kwargs": {"fontsize": 9},
-            "range": ranges,
-            "bins": 30,
-            "smooth": 0.8,
-            "color": "#0072B2",
-            "truth_color": "#D55E00",
-        }
-        if truths:
-            kwargs["truths"] = [truths.get(p) for p in parameters]
-        kwargs.update(corner_kwargs)
-        fig = corner.corner(data, fig=fig, **kwargs)
-        fig.text(0.98, 0.98, body, ha="right", va="top", fontsize=11)
-        return fig
+            else:
+                ranges.append(box)
+            boxes.append(box)
+        return corner_figure(
+            columns,
+            labels=[LABELS[p] for p in parameters],
+            titles=[SYMBOLS[p] for p in parameters],
+            ranges=ranges,
+            boxes=boxes,
+            priors=[self.draws(body, p, "prior").ravel() for p in parameters],
+            truths=[truths.get(p) for p in parameters] if truths else None,
+            quantiles=quantiles,
+            note=body,
+            fig=fig,
+            width=width,
+            **corner_kwargs,
+        )
 
     # -- display --------------------------------------------------------------------------
     def _table_rows(self, hdi_prob: float) -> list[dict[str, Any]]:
