@@ -1,0 +1,49 @@
+"""Every script in examples/ runs to the end in a fresh folder and writes only there.
+
+The scripts are the documentation's gallery; they are executed again on every docs build. Here
+each runs in its own process (a registered reader or a matplotlib setting cannot leak between
+them) with a temporary working directory.
+"""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.py"))
+
+
+def test_there_are_examples():
+    assert len(EXAMPLES) >= 4
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_runs_and_writes_only_into_examples_output(script, tmp_path):
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONWARNINGS": "error::DeprecationWarning"}
+    proc = subprocess.run(
+        [sys.executable, str(script)],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr
+    assert [p.name for p in tmp_path.iterdir()] == ["examples-output"]
+    written = [p for p in (tmp_path / "examples-output").rglob("*") if p.is_file()]
+    assert written, "an example should leave its results in examples-output/"
+
+
+@pytest.mark.parametrize("script", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_has_a_gallery_header(script):
+    text = script.read_text(encoding="utf-8")
+    assert text.startswith('"""\n'), "sphinx-gallery needs the docstring first"
+    title, underline = text.splitlines()[1:3]
+    assert title
+    assert set(underline) == {"="}
+    assert len(underline) == len(title)
