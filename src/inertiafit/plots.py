@@ -84,7 +84,7 @@ def style_context():
     """A :func:`matplotlib.rc_context` with :data:`STYLE`; rcParams are restored on exit."""
     import matplotlib
 
-    return matplotlib.rc_context(STYLE)
+    return matplotlib.rc_context(STYLE)  # type: ignore[arg-type]  # keys are valid rcParams
 
 
 def figure_width(width: str | float) -> float:
@@ -106,7 +106,7 @@ def figure_width(width: str | float) -> float:
     return w
 
 
-def _figure(fig: Figure | None, size: tuple[float, float], layout: str | None = "constrained"):
+def _figure(fig: Figure | None, size: tuple[float, float], layout: Any = "constrained") -> Figure:
     from matplotlib.figure import Figure
 
     return fig if fig is not None else Figure(figsize=size, layout=layout)
@@ -116,9 +116,15 @@ def _unit_tex(parameter: str) -> str:
     return UNITS[parameter].replace("^2", "$^2$")
 
 
-def _short_label(parameter: str, body: str | None = None) -> str:
+def axis_label(parameter: str, body: str | None = None) -> str:
+    """Compact axis label with unit, e.g. ``"$m$ [kg]"`` or ``"weight: $m$ [kg]"``.
+
+    A ``body`` ending in a newline is put on a line of its own.
+    """
     label = f"{SYMBOLS[parameter]} [{_unit_tex(parameter)}]"
-    return f"{body}: {label}" if body else label
+    if not body:
+        return label
+    return f"{body}{label}" if body.endswith("\n") else f"{body}: {label}"
 
 
 def save_figure(
@@ -371,10 +377,13 @@ def plot_identification_curve(
     from inertiafit.baseline import curve_mass_intervals
 
     _check_body(posterior, body)
-    pairs = [tuple(p) for p in pairs]
-    if not pairs or any(len(p) != 2 or not set(p) <= set(PARAMETERS) or p[0] == p[1]
-                        for p in pairs):  # fmt: skip
-        raise ValueError(f"pairs: expected pairs of distinct {', '.join(PARAMETERS)}, got {pairs}")
+    checked = [tuple(p) for p in pairs]
+    if not checked or any(len(p) != 2 or not set(p) <= set(PARAMETERS) or p[0] == p[1]
+                          for p in checked):  # fmt: skip
+        raise ValueError(
+            f"pairs: expected pairs of distinct {', '.join(PARAMETERS)}, got {checked}"
+        )
+    pairs = [(str(p[0]), str(p[1])) for p in checked]
     box = _box(posterior, body)
     g = float(posterior.tree["constant_data"]["gravity"])
     draws = {p: posterior.draws(body, p).ravel() for p in (*PARAMETERS, *DERIVED)}
@@ -421,7 +430,7 @@ def plot_identification_curve(
             ax.plot(central[px], central[py], ls=":", lw=0.8, color="k",
                     label="identification curve (median $M_g/g$, $I$)")  # fmt: skip
             for k, seg in enumerate(inside):
-                ax.plot(seg[px], seg[py], lw=1.6, color="k",
+                ax.plot(seg[px], seg[py], lw=1.4, color="k",
                         label="... inside the prior box" if k == 0 else None)  # fmt: skip
             (x0, x1), (y0, y1) = box[px], box[py]
             ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=0.8,
@@ -435,7 +444,7 @@ def plot_identification_curve(
             if baseline is not None:
                 sol = dict(zip(PARAMETERS, np.asarray(baseline.solutions).T, strict=True))
                 ax.scatter(sol[px], sol[py], s=9, marker="o", facecolors="none",
-                           edgecolors=PALETTE[4], lw=0.6,
+                           edgecolors=PALETTE[4], lw=0.6, zorder=4,
                            label="paper baseline: solution per start")  # fmt: skip
                 ax.scatter([getattr(baseline, px)], [getattr(baseline, py)], s=50, marker="*",
                            color=PALETTE[1], edgecolors="k", lw=0.4, zorder=5,
@@ -444,12 +453,17 @@ def plot_identification_curve(
             ax.set_ylim(limits[py])
             ax.set_xlabel(LABELS[px])
             ax.set_ylabel(LABELS[py])
-        handles, labels = axes[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="outside lower center", ncols=2 if w >= 5 else 1,
-                   markerscale=1.5)  # fmt: skip
+        legend: dict[str, Any] = {}
+        for ax in axes[: len(pairs)]:
+            for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+                legend.setdefault(lab, h)
+        fig.legend(list(legend.values()), list(legend), loc="outside lower center",
+                   ncols=2 if w >= 5 else 1, markerscale=1.5)  # fmt: skip
+        data = f"$m x = M_g/g$ = {a_med:.3g} kg m, $I$ = {i_med:.3g} kg m$^2$"
         fig.suptitle(
-            f"{body}: data fix $m x = M_g/g$ = {a_med:.3g} kg m and $I$ = {i_med:.3g} kg m$^2$;"
-            "\nthe prior box, not the data, picks the point on the curve"
+            f"{body}: data fix {data};\nthe prior box, not the data, picks the point on the curve"
+            if w >= 5
+            else f"{body}\ndata fix {data};\nthe prior box picks the point on the curve"
         )
     return fig
 
@@ -515,7 +529,7 @@ def plot_trace(
             for k, c in enumerate(shown):
                 ax_t.plot(x[c], lw=0.4, alpha=0.8, color=PALETTE[k % len(PALETTE)])
             ax_t.set_xlim(0, x.shape[1] - 1)
-            ax_t.set_ylabel(_short_label(p))
+            ax_t.set_ylabel(axis_label(p))
             ax_h.hist(x.ravel(), bins=40, orientation="horizontal", histtype="stepfilled",
                       color=PALETTE[0], alpha=0.6)  # fmt: skip
             ax_h.tick_params(labelleft=False)
@@ -544,7 +558,9 @@ def rank_groups(draws: np.ndarray, groups: int = 4) -> list[np.ndarray]:
 
     x = np.asarray(draws, dtype=float)
     ranks = rankdata(x.ravel(), method="average").reshape(x.shape)
-    return [ranks[idx].ravel() for idx in np.array_split(np.arange(x.shape[0]), groups) if idx.size]
+    return [
+        ranks[idx].ravel() for idx in np.array_split(np.arange(x.shape[0]), groups) if idx.size
+    ]
 
 
 def plot_rank(
@@ -557,7 +573,7 @@ def plot_rank(
     fig: Figure | None = None,
     width="double",
 ) -> Figure:
-    """Rank plots: is each group of walkers spread evenly over the whole posterior?
+    """Rank plots: each group of walkers should spread evenly over the whole posterior.
 
     All draws of a parameter are rank-normalised together; the walkers are split into
     ``groups`` contiguous groups and each group's ranks are histogrammed as a fraction of its
@@ -707,19 +723,25 @@ def corner_figure(
     with style_context():
         fig = _figure(fig, (w, w), layout=None)
         fig = corner.corner(data, fig=fig, **kwargs)
-        # corner.py sizes margins for 2-in panels; at journal sizes labels need more room.
-        panel = w / (k + 0.7)
-        lb = min(0.3, 0.62 / w + 0.02 * (2.0 - min(panel, 2.0)))
-        fig.subplots_adjust(left=lb, bottom=lb, right=0.98, top=1 - 0.32 / w, wspace=0.06,
-                            hspace=0.06)  # fmt: skip
+        # corner.py sizes margins and places labels (in axes fractions) for 2-in panels; at
+        # journal sizes that puts labels off the figure, so fix both in inches.
+        lines = max(1, *(str(lab).count("\n") + 1 for lab in kwargs["labels"] or [""]))
+        lb, right, space = min(0.3, (0.5 + 0.14 * lines) / w), 0.985, 0.06
+        fig.subplots_adjust(left=lb, bottom=lb, right=right, top=1 - 0.3 / w, wspace=space,
+                            hspace=space)  # fmt: skip
         axes = np.asarray(fig.axes).reshape(k, k)
+        panel = (right - lb) * w / (k + (k - 1) * space)
+        for ax in axes[-1, :]:
+            ax.xaxis.set_label_coords(0.5, -0.4 / panel)
+        for ax in axes[1:, 0]:
+            ax.yaxis.set_label_coords(-0.4 / panel, 0.5)
         edge = {"color": PRIOR_COLOUR, "ls": (0, (3, 2)), "lw": 0.8, "clip_on": False}
         rng = kwargs["range"]
         for i in range(k):
             ax = axes[i, i]
             prior = priors[i]
             if prior is not None:
-                edges = np.linspace(*rng[i], bins + 1)
+                edges = np.linspace(float(min(rng[i])), float(max(rng[i])), bins + 1)
                 counts, _ = np.histogram(prior, bins=edges)
                 scaled = counts * data.shape[0] / max(1, len(prior))
                 ax.stairs(scaled, edges, color=PRIOR_COLOUR, lw=0.7)
@@ -743,7 +765,7 @@ def plot_joint_corner(
     posterior: Posterior,
     *,
     parameters: Sequence[str] = PARAMETERS,
-    truths: Mapping[str, Mapping[str, float]] | None = None,
+    truths: Mapping[str, Any] | None = None,
     bodies: Sequence[str] | None = None,
     quantiles: Sequence[float] = (0.16, 0.5, 0.84),
     fig: Figure | None = None,
@@ -763,7 +785,8 @@ def plot_joint_corner(
         Quantities per body (names as :func:`plot_trace`). Axes of ``mass``, ``com_distance``
         and ``radius_of_gyration`` span that body's prior box.
     truths : mapping of str to mapping of str to float, optional
-        Known values per body and parameter (SI units), e.g. ``{"weight": {"mass": 2.92}}``.
+        Known values per body and parameter (SI units), e.g. ``{"weight": {"mass": 2.92}}``;
+        a value may also be an object with ``as_dict()``, such as an ideal body.
     bodies : sequence of str, optional
         Bodies to include, in order; default all.
     quantiles : sequence of float
@@ -789,14 +812,24 @@ def plot_joint_corner(
     names = tuple(posterior.bodies if bodies is None else bodies)
     for b in names:
         _check_body(posterior, b)
-    columns, labels, titles, ranges, boxes, priors, marks = [], [], [], [], [], [], []
+    columns: list[np.ndarray] = []
+    priors: list[np.ndarray | None] = []
+    labels: list[str] = []
+    titles: list[str] = []
+    ranges: list[tuple[float, float]] = []
+    boxes: list[tuple[float, float] | None] = []
+    marks: list[float | None] = []
     for b in names:
         box = _box(posterior, b)
+        known = (truths or {}).get(b) or {}
+        if not isinstance(known, Mapping):  # an ideal body (inertiafit.shapes) and the like
+            known = known.as_dict()
         for p in params:
             x = posterior.draws(b, p).ravel()
             columns.append(x)
-            labels.append(_short_label(p, b))
-            titles.append(f"{b}: {SYMBOLS[p]}")
+            # a long body name goes on its own line, or neighbouring labels overlap
+            labels.append(axis_label(p, b if len(b) <= 12 else f"{b}\n"))
+            titles.append(SYMBOLS[p])
             if p in box:
                 ranges.append(box[p])
                 boxes.append(box[p])
@@ -805,7 +838,7 @@ def plot_joint_corner(
                 ranges.append((float(lo - 0.1 * (hi - lo)), float(hi + 0.1 * (hi - lo))))
                 boxes.append(None)
             priors.append(posterior.draws(b, p, "prior").ravel())
-            marks.append((truths or {}).get(b, {}).get(p))
+            marks.append(known.get(p))
     return corner_figure(
         columns,
         labels=labels,

@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from inertiafit.physics import LABELS, PARAMETERS, SYMBOLS, UNITS
+from inertiafit.physics import PARAMETERS, SYMBOLS, UNITS
 
 REPORTED = (*PARAMETERS, "inertia", "gravity_moment")
 SUMMARY_COLUMNS = [
@@ -214,7 +214,7 @@ class Posterior:
         -------
         matplotlib.figure.Figure
         """
-        from inertiafit.plots import corner_figure
+        from inertiafit.plots import axis_label, corner_figure
 
         if body is None:
             if len(self.bodies) != 1:
@@ -233,7 +233,7 @@ class Posterior:
             boxes.append(box)
         return corner_figure(
             columns,
-            labels=[LABELS[p] for p in parameters],
+            labels=[axis_label(p) for p in parameters],
             titles=[SYMBOLS[p] for p in parameters],
             ranges=ranges,
             boxes=boxes,

@@ -1,0 +1,388 @@
+"""Figures: structure (axes, labels with units, prior-box limits, truths, sizes, no global state)
+and pixels (PNG comparison against ``tests/baseline_images``).
+
+The image tests draw seeded synthetic inputs (not a sampler run), so a change to the sampler
+does not move a pixel; only a change to the drawing does. To regenerate the baselines after an
+intended change, look at the new images, then::
+
+    INERTIAFIT_UPDATE_BASELINES=1 .venv/bin/python -m pytest tests/test_plots.py -q
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import pandas as pd
+import pytest
+import xarray as xr
+from matplotlib.lines import Line2D
+from matplotlib.patches import Rectangle
+from matplotlib.testing.compare import compare_images
+from scipy.stats import norm
+
+from inertiafit import plots
+from inertiafit.baseline import curve_mass_intervals, paper_baseline
+from inertiafit.physics import PARAMETERS
+from inertiafit.result import REPORTED, Posterior
+
+BASELINES = Path(__file__).parent / "baseline_images"
+UPDATE = os.environ.get("INERTIAFIT_UPDATE_BASELINES") == "1"
+DPI = 60
+# RMS over 0-255 pixel values. Re-rendering here gives 0; a moved tick label gives ~3, a moved
+# panel or a missing curve far more (checked by breaking the figures once).
+TOL = 1.0
+
+G = 9.81
+NOMINAL = {"attachment": (2.91, 0.225, 0.13), "weight": (2.92, 0.45, 0.035)}
+TRUTHS = {"mass": 2.91, "com_distance": 0.225, "radius_of_gyration": 0.13}
+
+
+def walk(rng: np.random.Generator, shape: tuple[int, int], phi: float = 0.9) -> np.ndarray:
+    """Standard-normal AR(1) series per walker, like a sampler's correlated draws."""
+    z = rng.standard_normal(shape)
+    out = np.empty(shape)
+    out[:, 0] = z[:, 0]
+    for t in range(1, shape[1]):
+        out[:, t] = phi * out[:, t - 1] + np.sqrt(1 - phi**2) * z[:, t]
+    return out
+
+
+def synthetic_posterior(seed: int = 0, n_chain: int = 16, n_draw: int = 150) -> Posterior:
+    """Draws spread along each body's identification curve inside a ±50 % box, seeded."""
+    rng = np.random.default_rng(seed)
+    post: dict[str, list[np.ndarray]] = {p: [] for p in REPORTED}
+    prior: dict[str, list[np.ndarray]] = {p: [] for p in REPORTED}
+    nominal, lower, upper = [], [], []
+    for m0, x0, r0 in NOMINAL.values():
+        nom = np.array([m0, x0, r0])
+        lo, hi = 0.5 * nom, 1.5 * nom
+        a0, i0 = m0 * x0, m0 * (r0**2 + x0**2)
+        m_lo, m_hi = curve_mass_intervals(
+            inertia=i0, gravity_moment=a0 * G, lower=lo, upper=hi, gravity=G
+        )[0]
+        shape = (n_chain, n_draw)
+        m = m_lo + (m_hi - m_lo) * norm.cdf(walk(rng, shape))
+        a = a0 * (1 + 0.005 * walk(rng, shape))
+        inertia = i0 * (1 + 0.01 * walk(rng, shape))
+        x = a / m
+        rho = np.sqrt(np.clip(inertia / m - x**2, 1e-8, None))
+        for store, (mm, xx, rr) in (
+            (post, (m, x, rho)),
+            (prior, tuple(rng.uniform(lo, hi, (1, 2000, 3)).transpose(2, 0, 1))),
+        ):
+            store["mass"].append(mm)
+            store["com_distance"].append(xx)
+            store["radius_of_gyration"].append(rr)
+            store["inertia"].append(mm * (rr**2 + xx**2))
+            store["gravity_moment"].append(mm * G * xx)
+        nominal.append(nom)
+        lower.append(lo)
+        upper.append(hi)
+    bodies = list(NOMINAL)
+
+    def group(values):
+        return xr.Dataset(
+            {p: (("chain", "draw", "body"), np.stack(v, axis=-1)) for p, v in values.items()},
+            coords={"body": bodies},
+        )
+
+    box = ("body", "parameter")
+    constant = xr.Dataset(
+        {"nominal": (box, nominal), "lower": (box, lower), "upper": (box, upper), "gravity": G},
+        coords={"body": bodies, "parameter": list(PARAMETERS)},
+    )
+    tree = xr.DataTree.from_dict(
+        {"posterior": group(post), "prior": group(prior), "constant_data": constant}
+    )
+    return Posterior(tree)
+
+
+def synthetic_traces(seed: int = 0) -> list[dict]:
+    rng = np.random.default_rng(seed)
+    traces = []
+    for speed in (240.0, 270.0, 300.0):
+        for _ in range(3):
+            t = np.arange(0.0, 0.8, 0.002)
+            alpha = np.radians(3000.0) * (1 + 0.03 * rng.standard_normal())
+            t0 = 0.05 + 0.01 * rng.standard_normal()
+            v_max = np.radians(speed)
+            vel = np.clip(alpha * (t - t0), 0.0, v_max)
+            vel += 0.01 * np.sin(2 * np.pi * 25 * t) + 0.003 * rng.standard_normal(t.size)
+            traces.append(
+                {
+                    "time": t,
+                    "velocity": vel,
+                    "acceleration": np.gradient(vel, t),
+                    "speed": speed,
+                    "window": (t0 + 0.01, t0 + 0.8 * v_max / alpha),
+                }
+            )
+    return traces
+
+
+def synthetic_trials(seed: int = 0) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    rows = [
+        {"condition": cond, "speed": speed, "inertia": mean * (1 + 0.04 * rng.standard_normal())}
+        for cond, mean in (("A", 0.216), ("B", 0.81))
+        for speed in (240, 270, 300)
+        for _ in range(10)
+    ]
+    return pd.DataFrame(rows)
+
+
+@pytest.fixture(scope="module")
+def posterior():
+    return synthetic_posterior()
+
+
+@pytest.fixture(scope="module")
+def baseline():
+    return paper_baseline(  # the same body and data as the synthetic posterior's attachment
+        inertia=2.91 * (0.13**2 + 0.225**2),
+        gravity_moment=2.91 * G * 0.225,
+        nominal=NOMINAL["attachment"],
+        method="SLSQP",
+        ks=range(-50, 51, 5),
+    )
+
+
+def check_image(fig, name: str, tmp_path: Path) -> None:
+    """Compare the figure at :data:`DPI` with ``baseline_images/<name>.png``."""
+    (actual,) = plots.save_figure(fig, tmp_path / name, formats=("png",), dpi=DPI)
+    expected = BASELINES / f"{name}.png"
+    if UPDATE:
+        BASELINES.mkdir(exist_ok=True)
+        shutil.copyfile(actual, expected)
+        return
+    if not expected.is_file():
+        pytest.fail(f"{expected} missing: run with INERTIAFIT_UPDATE_BASELINES=1 to create it")
+    assert expected.stat().st_size < 60_000, "keep baseline images small"
+    err = compare_images(str(expected), str(actual), tol=TOL)
+    assert err is None, err
+
+
+def figures(post, base):
+    """Every figure with its default arguments, by baseline name."""
+    body = "attachment"
+    return {
+        "corner": lambda: post.corner(body, truths=TRUTHS, parameters=PARAMETERS),
+        "identification-curve": lambda: plots.plot_identification_curve(post, body, baseline=base),
+        "fast-trials": lambda: plots.plot_fast_trials(synthetic_traces(), title="A"),
+        "inertia-by-speed": lambda: plots.plot_inertia_by_speed(synthetic_trials()),
+        "trace": lambda: plots.plot_trace(post, body, max_walkers=4),
+        "rank": lambda: plots.plot_rank(post, body),
+    }
+
+
+# --- pixels -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "name", ["corner", "identification-curve", "fast-trials", "inertia-by-speed", "trace", "rank"]
+)
+def test_figure_matches_its_baseline_image(name, posterior, baseline, tmp_path):
+    check_image(figures(posterior, baseline)[name](), name, tmp_path)
+
+
+def test_image_comparison_catches_a_moved_label(posterior, baseline, tmp_path):
+    # The negative control: the same figure with one label changed must not pass.
+    if UPDATE:
+        pytest.skip("regenerating baselines")
+    fig = figures(posterior, baseline)["trace"]()
+    fig.axes[0].set_ylabel("$m$ [g]")
+    (actual,) = plots.save_figure(fig, tmp_path / "trace", formats=("png",), dpi=DPI)
+    assert compare_images(str(BASELINES / "trace.png"), str(actual), tol=TOL) is not None
+
+
+# --- structure ----------------------------------------------------------------------------------
+
+
+def test_no_function_changes_rcparams_or_opens_pyplot_figures(posterior, baseline):
+    import matplotlib.pyplot as plt
+
+    before = dict(matplotlib.rcParams)
+    open_before = plt.get_fignums()
+    for make in figures(posterior, baseline).values():
+        make()
+        assert dict(matplotlib.rcParams) == before
+    plots.plot_joint_corner(posterior)
+    assert dict(matplotlib.rcParams) == before
+    assert plt.get_fignums() == open_before
+
+
+@pytest.mark.parametrize(("width", "inches"), [("single", 3.5), ("double", 7.0), (5.0, 5.0)])
+def test_width_sets_the_figure_width(posterior, width, inches):
+    body = "attachment"
+    for fig in (
+        post_fig
+        for post_fig in (
+            posterior.corner(body, width=width),
+            plots.plot_joint_corner(posterior, width=width),
+            plots.plot_identification_curve(posterior, body, width=width),
+            plots.plot_trace(posterior, body, width=width),
+            plots.plot_rank(posterior, body, width=width),
+            plots.plot_fast_trials(synthetic_traces(), width=width),
+            plots.plot_inertia_by_speed(synthetic_trials(), width=width),
+        )
+    ):
+        assert fig.get_size_inches()[0] == pytest.approx(inches)
+
+
+def test_defaults_are_journal_column_widths(posterior):
+    assert posterior.corner("attachment").get_size_inches()[0] == plots.DOUBLE_COLUMN
+    assert plots.plot_trace(posterior, "weight").get_size_inches()[0] == plots.DOUBLE_COLUMN
+    with pytest.raises(ValueError, match="width"):
+        plots.plot_trace(posterior, "weight", width="triple")
+    with pytest.raises(ValueError, match="width"):
+        plots.figure_width(-1.0)
+
+
+def test_corner_axes_span_the_prior_box_with_truth_lines(posterior):
+    fig = posterior.corner("weight", truths={"mass": 2.92, "inertia": 0.6})
+    axes = np.asarray(fig.axes).reshape(5, 5)
+    lower = (1.46, 0.225, 0.0175)
+    upper = (4.38, 0.675, 0.0525)
+    for i in range(3):
+        assert axes[-1, i].get_xlim() == pytest.approx((lower[i], upper[i]))
+        assert "[" in axes[-1, i].get_xlabel()
+    assert axes[2, 0].get_ylim() == pytest.approx((lower[2], upper[2]))
+    assert axes[-1, 3].get_xlabel() == "$I$ [kg m$^2$]"
+    truth = [
+        ln
+        for ln in axes[-1, 0].get_lines()
+        if ln.get_color() == plots.PALETTE[1] and ln.get_xdata()[0] == pytest.approx(2.92)
+    ]
+    assert truth, "truth line for mass missing"
+    inertia_truth = [ln for ln in axes[3, 3].get_lines() if ln.get_color() == plots.PALETTE[1]]
+    assert inertia_truth
+    # the box edges are drawn (dashed, prior colour) on every mass panel
+    edges = [ln for ln in axes[0, 0].get_lines() if ln.get_color() == plots.PRIOR_COLOUR]
+    assert sorted(ln.get_xdata()[0] for ln in edges) == pytest.approx([1.46, 4.38])
+
+
+def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
+    truths = {"weight": {"mass": 2.92}}
+    fig = plots.plot_joint_corner(posterior, truths=truths)
+    axes = np.asarray(fig.axes).reshape(6, 6)
+    assert [ax.get_xlabel() for ax in axes[-1]] == [
+        "attachment: $m$ [kg]",
+        "attachment: $x$ [m]",
+        r"attachment: $\rho$ [m]",
+        "weight: $m$ [kg]",
+        "weight: $x$ [m]",
+        r"weight: $\rho$ [m]",
+    ]
+    assert axes[-1, 0].get_xlim() == pytest.approx((1.455, 4.365))
+    assert axes[-1, 4].get_xlim() == pytest.approx((0.225, 0.675))
+
+    def truth_lines(ax):  # corner.py draws NaN lines for missing truths
+        return [
+            ln
+            for ln in ax.get_lines()
+            if ln.get_color() == plots.PALETTE[1] and np.isfinite(ln.get_xdata()).all()
+        ]
+
+    assert truth_lines(axes[-1, 3])
+    assert not truth_lines(axes[-1, 0])
+
+    class Ideal:  # like inertiafit.shapes' ideal bodies
+        def as_dict(self):
+            return {"mass": 2.91}
+
+    fig = plots.plot_joint_corner(posterior, truths={"attachment": Ideal()})
+    assert truth_lines(np.asarray(fig.axes).reshape(6, 6)[-1, 0])
+
+
+def test_identification_curve_panels_box_and_physics(posterior, baseline):
+    pairs = (*plots.CURVE_PAIRS, ("com_distance", "radius_of_gyration"))
+    fig = plots.plot_identification_curve(posterior, "attachment", baseline=baseline, pairs=pairs)
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 3
+    assert [ax.get_xlabel() for ax in axes] == [
+        "mass $m$ [kg]",
+        "mass $m$ [kg]",
+        "CoM distance $x$ [m]",
+    ]
+    assert axes[0].get_ylabel() == r"radius of gyration $\rho$ [m]"
+    # the prior box, exactly
+    (box,) = [p for p in axes[1].patches if isinstance(p, Rectangle)]
+    assert box.get_xy() == pytest.approx((1.455, 0.1125))
+    assert (box.get_width(), box.get_height()) == pytest.approx((2.91, 0.225))
+    # the thick curve is the identification curve at the posterior medians, inside the box
+    g = G
+    a = np.median(posterior.draws("attachment", "gravity_moment")) / g
+    i = np.median(posterior.draws("attachment", "inertia"))
+    (curve,) = [ln for ln in axes[0].get_lines() if ln.get_linewidth() > 1.2]
+    m, rho = curve.get_xdata(), curve.get_ydata()
+    (curve_x,) = [ln for ln in axes[1].get_lines() if ln.get_linewidth() > 1.2]
+    x = curve_x.get_ydata()
+    np.testing.assert_allclose(m * x, a, rtol=1e-12)
+    np.testing.assert_allclose(m * (rho**2 + x**2), i, rtol=1e-9)
+    assert m.min() >= 1.455 - 1e-12
+    assert m.max() <= 4.365 + 1e-12
+    # the bound m >= (M_g/g)^2 / I
+    bound = [ln for ln in axes[0].get_lines() if ln.get_color() == plots.PALETTE[2]]
+    assert bound[0].get_xdata()[0] == pytest.approx(a**2 / i)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "paper baseline: feasible-region mean" in labels
+    assert "prior box" in labels
+
+
+def test_identification_curve_rejects_bad_input(posterior):
+    with pytest.raises(ValueError, match="body"):
+        plots.plot_identification_curve(posterior, "forearm")
+    with pytest.raises(ValueError, match="pairs"):
+        plots.plot_identification_curve(posterior, "weight", pairs=[("mass", "mass")])
+
+
+def test_trace_and_rank_structure(posterior):
+    fig = plots.plot_trace(posterior, "weight", parameters=("mass", "inertia"), max_walkers=5)
+    assert len(fig.axes) == 4
+    assert fig.axes[0].get_ylabel() == "$m$ [kg]"
+    assert fig.axes[2].get_ylabel() == "$I$ [kg m$^2$]"
+    assert len(fig.axes[0].get_lines()) == 5
+    fig = plots.plot_rank(posterior, "weight", bins=10)
+    assert len(fig.axes) == 3
+    uniform = [ln for ln in fig.axes[0].get_lines() if ln.get_linestyle() == "--"]
+    assert uniform[0].get_ydata()[0] == pytest.approx(0.1)
+    with pytest.raises(ValueError, match="parameters"):
+        plots.plot_rank(posterior, "weight", parameters=("density",))
+
+
+def test_rank_groups_are_uniform_for_mixed_walkers_and_not_for_stuck_ones():
+    rng = np.random.default_rng(3)
+    mixed = rng.normal(size=(16, 500))
+    n = mixed.size
+    for ranks in plots.rank_groups(mixed, 4):
+        counts, _ = np.histogram(ranks, bins=10, range=(0.5, n + 0.5))
+        assert counts.max() / counts.mean() < 1.3
+    # negative control: each group of walkers stuck in its own part of the posterior
+    stuck = mixed + 10.0 * (np.arange(16)[:, None] // 4)
+    first = plots.rank_groups(stuck, 4)[0]
+    assert first.max() <= n / 4 + 1
+
+
+def test_save_figure_writes_vector_and_raster(posterior, tmp_path):
+    fig = plots.plot_rank(posterior, "attachment")
+    paths = plots.save_figure(fig, tmp_path / "rank", formats=("pdf", "png", "svg"), dpi=50)
+    assert [p.suffix for p in paths] == [".pdf", ".png", ".svg"]
+    assert paths[0].read_bytes().startswith(b"%PDF")
+    assert paths[1].read_bytes().startswith(b"\x89PNG")
+    assert b"<svg" in paths[2].read_bytes()[:500]
+    again = plots.save_figure(fig, tmp_path / "again", formats=("pdf",), dpi=50)
+    assert again[0].read_bytes() == paths[0].read_bytes()  # no dates: same bytes
+    with pytest.raises(ValueError, match="formats"):
+        plots.save_figure(fig, tmp_path / "x", formats=("jpg",))
+
+
+def test_draws_into_a_given_figure(posterior):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(4, 3))
+    assert plots.plot_trace(posterior, "weight", fig=fig) is fig
+    assert isinstance(fig.axes[0].get_lines()[0], Line2D)
