@@ -1,0 +1,131 @@
+"""Helpers shared by the benchmarks: the machine, timing, tables, accuracy.
+
+Every benchmark module has ``run(*, quick, seed) -> dict`` (its rows, its printed table and
+its targets) and a ``main()`` so it runs alone; ``benchmarks/run.py`` runs them all.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+QUANTITIES = ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment")
+
+
+def machine() -> dict:
+    """What the numbers were measured on: cores, CPU, memory, versions, BLAS settings."""
+    import numpy
+    import scipy
+
+    cpu = "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem_gib = float("nan")
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal"):
+                mem_gib = int(line.split()[1]) / 2**20
+                break
+    except OSError:
+        pass
+    versions = {"python": platform.python_version(), "numpy": numpy.__version__}
+    versions["scipy"] = scipy.__version__
+    for mod in ("emcee", "arviz", "xarray", "pandas", "matplotlib", "inertiafit"):
+        try:
+            versions[mod] = __import__(mod).__version__
+        except (ImportError, AttributeError):
+            versions[mod] = "n/a"
+    blas = "unknown"
+    try:
+        cfg = numpy.show_config(mode="dicts")
+        info = cfg["Build Dependencies"]["blas"]
+        blas = f"{info.get('name')} {info.get('version')}"
+    except (TypeError, KeyError):
+        pass
+    return {
+        "nproc": os.cpu_count(),
+        "cpu": cpu,
+        "memory_gib": round(mem_gib, 1),
+        "platform": platform.platform(),
+        "versions": versions,
+        "blas": blas,
+        # Set on some processors for old OpenBLAS builds; it slows a current numpy.
+        "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),
+        "OPENBLAS_L2_SIZE": os.environ.get("OPENBLAS_L2_SIZE"),
+        "inertiafit_path": str(Path(__import__("inertiafit").__file__).parent),
+    }
+
+
+def warn_blas_env() -> None:
+    if os.environ.get("OPENBLAS_CORETYPE") or os.environ.get("OPENBLAS_L2_SIZE"):
+        print(
+            "note: OPENBLAS_CORETYPE/OPENBLAS_L2_SIZE are set; they slow a current numpy. "
+            "For timing, run: env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE "
+            ".venv/bin/python benchmarks/run.py",
+            file=sys.stderr,
+        )
+
+
+def best_of(func: Callable[[], object], repeats: int) -> tuple[float, list[float], object]:
+    """Wall time of ``func``: the minimum over ``repeats`` calls, all times, the last result.
+
+    The minimum is the least disturbed measurement on a shared machine.
+    """
+    times = []
+    result = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        result = func()
+        times.append(time.perf_counter() - t0)
+    return min(times), times, result
+
+
+def accuracy(draws: dict, ref) -> tuple[float, float]:
+    """Largest |mean error| in posterior SDs and largest |SD ratio - 1| over the quantities."""
+    return (
+        max(abs(float(np.mean(draws[q])) - ref.mean(q)) / ref.sd(q) for q in QUANTITIES),
+        max(abs(float(np.std(draws[q])) / ref.sd(q) - 1) for q in QUANTITIES),
+    )
+
+
+def table(columns: Sequence[tuple[str, str, str]], rows: Sequence[dict]) -> str:
+    """Plain-text table; ``columns`` are ``(key, heading, format)``."""
+    cells = [[h for _, h, _ in columns]]
+    for r in rows:
+        line = []
+        for key, _, fmt in columns:
+            v = r.get(key)
+            if v is None:
+                line.append("-")
+            elif isinstance(v, str):
+                line.append(v)
+            else:
+                line.append(format(v, fmt))
+        cells.append(line)
+    widths = [max(len(c[i]) for c in cells) for i in range(len(columns))]
+    out = []
+    for n, c in enumerate(cells):
+        first = c[0].ljust(widths[0])
+        out.append(
+            "  ".join([first, *(x.rjust(w) for x, w in zip(c[1:], widths[1:], strict=True))])
+        )
+        if n == 0:
+            out.append("-" * len(out[0]))
+    return "\n".join(out)
+
+
+def verdict(value: float, limit: float, *, below: bool = True) -> str:
+    ok = value <= limit if below else value >= limit
+    return "met" if ok else "NOT met"

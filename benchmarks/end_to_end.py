@@ -1,0 +1,343 @@
+"""End to end: ``inertiafit run study.toml --out X`` as a subprocess against the cold-import floor.
+
+The study is ``paper_study`` (62 trials at 1 kHz). The floor is a fresh interpreter importing
+what ``run`` needs (``python -c "import inertiafit, emcee, arviz, corner, matplotlib, scipy,
+xarray"``): no pipeline can start faster. Both best of several runs; peak memory is each
+child's own maximum resident set size (GNU time's ``%M``, else ``os.wait4``). Where the time goes comes from one more
+run in a child that wraps the pipeline's stages with wall-clock timers (no profiler overhead),
+and from cProfile's top entries of another.
+
+Run:  .venv/bin/python benchmarks/end_to_end.py [--quick] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import table
+
+RATIO_TARGET = 4.0
+MEMORY_TARGET_MB = 400.0
+FLOOR_IMPORTS = "import inertiafit, emcee, arviz, corner, matplotlib, scipy, xarray"
+
+# Runs in a child: times every stage of `run` by wrapping it (tolerant of moved functions).
+STAGES_CHILD = r"""
+import functools, importlib, json, sys, time
+T0 = time.perf_counter()
+import inertiafit, emcee, arviz, corner, matplotlib, scipy, xarray
+T_IMPORT = time.perf_counter() - T0
+times = {}
+def wrap(owner, attr, label):
+    fn = getattr(owner, attr, None)
+    if fn is None:
+        return
+    @functools.wraps(fn)
+    def timed(*a, **k):
+        t = time.perf_counter()
+        try:
+            return fn(*a, **k)
+        finally:
+            times[label] = times.get(label, 0.0) + time.perf_counter() - t
+    setattr(owner, attr, timed)
+def mod(name):
+    try:
+        return importlib.import_module(name)
+    except ImportError:
+        return None
+study, inference, sampler, result = (mod("inertiafit." + m) for m in
+                                     ("study", "inference", "sampler", "result"))
+processing, plots, report = (mod("inertiafit." + m) for m in ("processing", "plots", "report"))
+rendering = mod("inertiafit.rendering")
+from matplotlib.figure import Figure
+wrap(study, "process_study", "process_study")
+wrap(inference, "fit", "fit (sampling + DataTree)")
+wrap(inference, "sample", "  sample (Laplace start + emcee + checks)")
+wrap(sampler, "_laplace", "    Laplace start")
+wrap(inference, "build_tree", "  build_tree")
+wrap(processing, "speed_effect", "speed_effect")
+wrap(study, "paper_baselines", "paper_baselines")
+wrap(study, "comparison_table", "comparison_table")
+for owner in (study, rendering):
+    if owner is not None:
+        wrap(owner, "write_study_outputs", "write_study_outputs")
+wrap(result.Posterior, "corner", "  corner plots")
+wrap(result.Posterior, "save", "  posterior.nc")
+wrap(result.Posterior, "summary", "summary tables (all calls)")
+wrap(plots, "plot_fast_trials", "  plot_fast_trials")
+wrap(plots, "plot_inertia_by_speed", "  plot_inertia_by_speed")
+wrap(report, "write_report", "  report.html")
+orig_savefig = Figure.savefig
+def savefig(self, fname, *a, **k):
+    t = time.perf_counter()
+    try:
+        return orig_savefig(self, fname, *a, **k)
+    finally:
+        key = "  savefig " + str(fname).rsplit(".", 1)[-1]
+        times[key] = times.get(key, 0.0) + time.perf_counter() - t
+Figure.savefig = savefig
+from inertiafit.cli import main
+import contextlib, io
+T1 = time.perf_counter()
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    rc = main(sys.argv[2:])
+T_MAIN = time.perf_counter() - T1
+json.dump({"rc": rc, "import": T_IMPORT, "main": T_MAIN, "total": time.perf_counter() - T0,
+           "stages": times}, open(sys.argv[1], "w"))
+"""
+
+PROFILE_CHILD = r"""
+import cProfile, pstats, sys, contextlib, io
+prof = cProfile.Profile()
+prof.enable()
+from inertiafit.cli import main
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    main(sys.argv[2:])
+prof.disable()
+prof.dump_stats(sys.argv[1])
+"""
+
+
+def timed_child(cmd: list[str]) -> tuple[float, float]:
+    """Wall time (s) and peak resident memory (MB) of one child process.
+
+    The peak comes from GNU time's ``%M`` where it exists: a child forked straight from this
+    (large) process would inherit this process's peak in its ``ru_maxrss`` through fork.
+    """
+    gnu_time = shutil.which("time") or (
+        "/usr/bin/time" if Path("/usr/bin/time").exists() else None
+    )
+    with tempfile.NamedTemporaryFile(suffix=".rss") as rss:
+        full = [gnu_time, "-f", "%M", "-o", rss.name, *cmd] if gnu_time else cmd
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(full, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        _, status, usage = os.wait4(proc.pid, 0)
+        seconds = time.perf_counter() - t0
+        err = proc.stderr.read().decode() if proc.stderr else ""
+        if proc.stderr:
+            proc.stderr.close()
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            raise RuntimeError(f"{cmd} failed ({proc.returncode}):\n{err[-2000:]}")
+        text = Path(rss.name).read_text().split()
+        kib = int(text[-1]) if gnu_time and text else usage.ru_maxrss  # KiB on Linux
+    return seconds, kib / 1024
+
+
+def run_command(manifest: Path, out: Path) -> list[str]:
+    exe = Path(sys.executable).parent / "inertiafit"
+    if exe.exists():
+        return [str(exe), "run", str(manifest), "--out", str(out)]
+    code = "import sys; from inertiafit.cli import main; sys.exit(main())"
+    return [sys.executable, "-c", code, "run", str(manifest), "--out", str(out)]
+
+
+def top_entries(prof_file: Path, n: int) -> list[dict]:
+    import pstats
+
+    stats = pstats.Stats(str(prof_file))
+    rows = []
+    for (fname, line, func), (_, ncalls, tottime, cumtime, _) in stats.stats.items():
+        short = "/".join(Path(fname).parts[-2:]) if fname != "~" else ""
+        rows.append(
+            {
+                "function": f"{short}:{line}({func})" if short else func,
+                "ncalls": ncalls,
+                "tottime": tottime,
+                "cumtime": cumtime,
+            }
+        )
+    rows.sort(key=lambda r: -r["tottime"])
+    return rows[:n]
+
+
+def run(*, quick: bool = False, seed: int = 11) -> dict:
+    from inertiafit.simulate import paper_study
+
+    repeats = 1 if quick else 4
+    with tempfile.TemporaryDirectory(prefix="inertiafit-bench-") as tmp:
+        tmpdir = Path(tmp)
+        manifest = paper_study(tmpdir / "study", seed=seed)
+        out = tmpdir / "out"
+        floor_cmd = [sys.executable, "-c", FLOOR_IMPORTS]
+        timed_child(floor_cmd)  # warm the page cache for both
+        if not quick:
+            timed_child(run_command(manifest, out))
+        runs, floors = [], []
+        for _ in range(repeats):
+            floors.append(timed_child(floor_cmd))
+            shutil.rmtree(out, ignore_errors=True)
+            runs.append(timed_child(run_command(manifest, out)))
+        outputs = sorted(p.name for p in out.iterdir())
+        stage_file = tmpdir / "stages.json"
+        subprocess.run(
+            [
+                sys.executable,
+                "-c",
+                STAGES_CHILD,
+                str(stage_file),
+                "run",
+                str(manifest),
+                "--out",
+                str(tmpdir / "out-stages"),
+            ],
+            check=True,
+        )
+        stages = json.loads(stage_file.read_text())
+        top = []
+        if not quick:  # a profiled run costs ~1.6x a plain one
+            prof_file = tmpdir / "run.prof"
+            subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    PROFILE_CHILD,
+                    str(prof_file),
+                    "run",
+                    str(manifest),
+                    "--out",
+                    str(tmpdir / "out-prof"),
+                ],
+                check=True,
+            )
+            top = top_entries(prof_file, 15)
+    run_s = min(s for s, _ in runs)
+    floor_s = min(s for s, _ in floors)
+    run_mb = max(m for _, m in runs)
+    floor_mb = max(m for _, m in floors)
+    ratio = run_s / floor_s
+    row = {
+        "run_seconds": run_s,
+        "run_all": [s for s, _ in runs],
+        "run_peak_mb": run_mb,
+        "floor_seconds": floor_s,
+        "floor_all": [s for s, _ in floors],
+        "floor_peak_mb": floor_mb,
+        "ratio": ratio,
+        "outputs": outputs,
+    }
+    text = table(
+        [
+            ("what", "what", ""),
+            ("seconds", "best wall (s)", ".2f"),
+            ("ratio", "ratio", ".2f"),
+            ("mb", "peak RSS (MB)", ".0f"),
+        ],
+        [
+            {
+                "what": "inertiafit run (paper_study)",
+                "seconds": run_s,
+                "ratio": ratio,
+                "mb": run_mb,
+            },
+            {
+                "what": "floor: python -c 'import ...'",
+                "seconds": floor_s,
+                "ratio": 1.0,
+                "mb": floor_mb,
+            },
+        ],
+    )
+    text += f"\nbest of {repeats}; {len(outputs)} output files.\n"
+    # Stage breakdown: wall clock in one more child; indented stages are inside the one above.
+    srows = [
+        {
+            "stage": "interpreter start (subprocess - in-child total)",
+            "seconds": max(run_s - stages["total"], 0.0),
+        },
+        {"stage": "imports (the floor's modules)", "seconds": stages["import"]},
+    ]
+    order = [
+        "process_study",
+        "fit (sampling + DataTree)",
+        "  sample (Laplace start + emcee + checks)",
+        "    Laplace start",
+        "  build_tree",
+        "speed_effect",
+        "paper_baselines",
+        "comparison_table",
+        "write_study_outputs",
+        "  corner plots",
+        "  plot_fast_trials",
+        "  plot_inertia_by_speed",
+        "  savefig pdf",
+        "  savefig png",
+        "  posterior.nc",
+        "  report.html",
+        "summary tables (all calls)",
+    ]
+    for key in order:
+        if key in stages["stages"]:
+            srows.append({"stage": key, "seconds": stages["stages"][key]})
+    top_level = sum(
+        v
+        for k, v in stages["stages"].items()
+        if not k.startswith(" ") and not k.startswith("summary")
+    )
+    srows.append(
+        {
+            "stage": "rest of main (load, lazy imports, report text)",
+            "seconds": stages["main"] - top_level,
+        }
+    )
+    srows.append({"stage": "total in child", "seconds": stages["total"]})
+    for r in srows:
+        r["share"] = r["seconds"] / stages["total"]
+    text += "\nwhere the time of `run` goes (wall clock per stage, one run):\n"
+    text += table(
+        [("stage", "stage", ""), ("seconds", "seconds", ".3f"), ("share", "share", ".0%")], srows
+    )
+    if top:
+        text += "\n\ncProfile, top entries by own time (profiling inflates the totals):\n"
+        text += table(
+            [
+                ("function", "function", ""),
+                ("ncalls", "calls", "d"),
+                ("tottime", "own (s)", ".3f"),
+            ],
+            top,
+        )
+    return {
+        "name": "end_to_end",
+        "title": "4. End to end: inertiafit run on paper_study vs the cold-import floor",
+        "rows": [row],
+        "stages": srows,
+        "profile_top": top,
+        "table": text,
+        "targets": [
+            {
+                "target": f"run <= {RATIO_TARGET:g}x the import floor",
+                "value": f"{ratio:.2f}x",
+                "status": "met" if ratio <= RATIO_TARGET else "NOT met",
+            },
+            {
+                "target": f"peak memory < {MEMORY_TARGET_MB:g} MB",
+                "value": f"{run_mb:.0f} MB",
+                "status": "met" if run_mb < MEMORY_TARGET_MB else "NOT met",
+            },
+        ],
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", help="also write the results as JSON to this file")
+    parser.add_argument("--seed", type=int, default=11)
+    parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    args = parser.parse_args()
+    result = run(quick=args.quick, seed=args.seed)
+    print(result["table"])
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(result, fh, indent=2)
+
+
+if __name__ == "__main__":
+    main()

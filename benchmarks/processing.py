@@ -1,0 +1,175 @@
+"""Trial processing: ``process_study`` on a paper-sized study against reading + filtering alone.
+
+The study is ``paper_study`` (62 trials at 1 kHz: two quasi-static trials of 90 s, 60 fast
+ones). The floor is the least any pipeline must do with it: read the same CSV files with
+pandas' C parser and run the zero-lag Butterworth low-pass (``scipy.signal.sosfiltfilt``, the
+same 2nd-order 20 Hz design) over torque and velocity of every trial. Ratio = ours / floor,
+best of several repeats each. Accuracy: every fast trial's inertia against the simulated truth.
+
+Run:  .venv/bin/python benchmarks/processing.py [--quick] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from common import best_of, table
+from scipy import signal
+
+TARGET = 3.0
+
+
+def floor(files: list[Path], rate: float = 1000.0) -> int:
+    sos = signal.butter(2, 20.0, btype="low", fs=rate, output="sos")
+    n = 0
+    for f in files:
+        frame = pd.read_csv(f, usecols=["time", "angle", "velocity", "torque"])
+        for col in ("torque", "velocity"):
+            signal.sosfiltfilt(sos, frame[col].to_numpy(dtype=float))
+        n += len(frame)
+    return n
+
+
+def stage_profile(manifest: Path) -> list[dict]:
+    """Cumulative time of process_study's parts, from one profiled call."""
+    import cProfile
+    import pstats
+
+    from inertiafit.study import process_study
+
+    prof = cProfile.Profile()
+    prof.enable()
+    process_study(manifest)
+    prof.disable()
+    stats = pstats.Stats(prof)
+    total = max(v[3] for k, v in stats.stats.items() if k[2] == "process_study")
+    wanted = {
+        "read (Study.read: CSV -> Trial)": ("manifest.py", "read"),
+        "  pandas read_csv": ("readers.py", "_load_table"),
+        "  make_trial (xarray Dataset, checks)": ("trial.py", "make_trial"),
+        "fit_gravity (quasi-static)": ("gravity.py", "fit_gravity"),
+        "estimate_inertia (fast)": ("inertia.py", "estimate_inertia"),
+        "  lowpass (filter + xarray copies)": ("filtering.py", "lowpass"),
+        "  sosfiltfilt": ("_signaltools.py", "sosfiltfilt"),
+        "  find_window": ("window.py", "find_window"),
+        "  integrated_autocorrelation_time": ("gravity.py", "integrated_autocorrelation_time"),
+    }
+    rows = []
+    for label, (fname, func) in wanted.items():
+        cum = [v[3] for k, v in stats.stats.items() if k[0].endswith(fname) and k[2] == func]
+        rows.append({"stage": label, "seconds": sum(cum), "share": sum(cum) / total})
+    rows.append({"stage": "process_study (profiled total)", "seconds": total, "share": 1.0})
+    return rows
+
+
+def run(*, quick: bool = False, seed: int = 7) -> dict:
+    from inertiafit.simulate import paper_study
+    from inertiafit.study import process_study
+
+    repeats = 3 if quick else 7
+    with tempfile.TemporaryDirectory(prefix="inertiafit-bench-") as tmp:
+        manifest = paper_study(tmp, seed=seed)
+        files = sorted((Path(tmp) / "data").glob("*.csv"))
+        mb = sum(f.stat().st_size for f in files) / 1e6
+        truth = tomllib.loads((Path(tmp) / "truth.toml").read_text())["conditions"]
+        process_study(manifest)  # warm-up: imports, page cache
+        floor(files)
+        ours_s, ours_all, processed = best_of(lambda: process_study(manifest), repeats)
+        floor_s, floor_all, n_samples = best_of(lambda: floor(files), repeats)
+        prof = stage_profile(manifest)
+    trials = processed.trials
+    fast = trials[trials["kind"] == "fast"]
+    true_i = {lab: cond["inertia"] for lab, cond in truth.items()}
+    labels = dict(zip(processed.study.conditions, truth, strict=True))
+    rel = [
+        (row["inertia"] - true_i[labels[row["condition"]]]) / true_i[labels[row["condition"]]]
+        for _, row in fast.iterrows()
+    ]
+    rel_means = {
+        c: float(np.mean([r for r, cc in zip(rel, fast["condition"], strict=True) if cc == c]))
+        for c in processed.study.conditions
+    }
+    ratio = ours_s / floor_s
+    row = {
+        "trials": len(files),
+        "samples": n_samples,
+        "megabytes": mb,
+        "ours_seconds": ours_s,
+        "ours_all": ours_all,
+        "floor_seconds": floor_s,
+        "floor_all": floor_all,
+        "ratio": ratio,
+        "per_trial_ms": 1e3 * ours_s / len(files),
+        "inertia_rel_err_mean": rel_means,
+        "inertia_rel_err_sd": float(np.std(rel)),
+    }
+    text = table(
+        [
+            ("what", "what", ""),
+            ("seconds", "best (s)", ".3f"),
+            ("per_trial", "per trial (ms)", ".1f"),
+            ("ratio", "ratio", ".2f"),
+        ],
+        [
+            {
+                "what": "process_study (ours)",
+                "seconds": ours_s,
+                "per_trial": 1e3 * ours_s / len(files),
+                "ratio": ratio,
+            },
+            {
+                "what": "floor: read_csv + sosfiltfilt",
+                "seconds": floor_s,
+                "per_trial": 1e3 * floor_s / len(files),
+                "ratio": 1.0,
+            },
+        ],
+    )
+    text += (
+        f"\n{len(files)} trials, {n_samples} rows, {mb:.1f} MB of CSV; best of {repeats}.\n"
+        "accuracy: mean relative error of the per-trial inertia vs the truth, per condition: "
+        + ", ".join(f"{c} {100 * v:+.2f} %" for c, v in rel_means.items())
+        + f" (trial-to-trial SD {100 * row['inertia_rel_err_sd']:.1f} %, the simulated scatter)"
+        + "\n\nwhere process_study's time goes (cProfile, cumulative; profiling inflates it):\n"
+        + table(
+            [("stage", "stage", ""), ("seconds", "seconds", ".3f"), ("share", "share", ".0%")],
+            prof,
+        )
+    )
+    return {
+        "name": "processing",
+        "title": "3. Trial processing: process_study on paper_study (62 trials, 1 kHz)",
+        "rows": [row],
+        "profile": prof,
+        "table": text,
+        "targets": [
+            {
+                "target": f"process_study <= {TARGET:g}x the read+filter floor",
+                "value": f"{ratio:.2f}x",
+                "status": "met" if ratio <= TARGET else "NOT met",
+            }
+        ],
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", help="also write the results as JSON to this file")
+    parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    args = parser.parse_args()
+    result = run(quick=args.quick, seed=args.seed)
+    print(result["table"])
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(result, fh, indent=2)
+
+
+if __name__ == "__main__":
+    main()

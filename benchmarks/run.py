@@ -1,0 +1,135 @@
+"""Every benchmark of inertiafit in one run: tables with ratios measured in the same run.
+
+1. sampler      inertiafit's sampler vs plain emcee (ESS/s, tau, accuracy vs quadrature)
+2. peer_pymc    PyMC's NUTS on the same model (optional: skipped when PyMC is missing)
+3. processing   process_study vs reading the CSVs + sosfiltfilt (target <= 3x)
+4. end_to_end   `inertiafit run` vs the cold-import floor (target <= 4x, < 400 MB)
+5. scaling      K segments in one study; a batch of small studies
+
+Run:  .venv/bin/python benchmarks/run.py [--quick] [--json FILE] [--only NAME ...]
+      [--pymc-python PATH]   (another venv's python with PyMC and inertiafit installed)
+Each benchmark also runs alone: .venv/bin/python benchmarks/NAME.py [--quick] [--json FILE].
+Results are described in docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import common
+import end_to_end
+import peer_pymc
+import processing
+import sampler
+import scaling
+
+HERE = Path(__file__).resolve().parent
+BENCHMARKS = {
+    "sampler": sampler.run,
+    "peer_pymc": peer_pymc.run,
+    "processing": processing.run,
+    "end_to_end": end_to_end.run,
+    "scaling": scaling.run,
+}
+
+
+def pymc_elsewhere(python: str, quick: bool) -> dict:
+    """The PyMC peer in another interpreter (PyMC need not be in the project's venv)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "peer.json"
+        cmd = [python, str(HERE / "peer_pymc.py"), "--json", str(out)]
+        subprocess.run(
+            [*cmd, *(["--quick"] if quick else [])], check=True, stdout=subprocess.DEVNULL
+        )
+        return json.loads(out.read_text())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--quick", action="store_true", help="shrink everything (about 2 minutes in all)"
+    )
+    parser.add_argument("--json", help="write every result (and the machine) to this file")
+    parser.add_argument("--only", nargs="+", choices=list(BENCHMARKS), help="run only these")
+    parser.add_argument(
+        "--pymc-python",
+        default=os.environ.get("INERTIAFIT_BENCH_PYMC_PYTHON"),
+        help="python of a venv with PyMC, used when PyMC is not importable here",
+    )
+    args = parser.parse_args()
+    common.warn_blas_env()
+    info = common.machine()
+    print(
+        f"machine: {info['nproc']} cores, {info['cpu']}, {info['memory_gib']} GiB; "
+        + ", ".join(f"{k} {v}" for k, v in info["versions"].items())
+        + f"; BLAS {info['blas']}; OPENBLAS_CORETYPE={info['OPENBLAS_CORETYPE']}"
+    )
+    print(f"mode: {'quick' if args.quick else 'full'}; inertiafit from {info['inertiafit_path']}")
+    results = {}
+    t_all = time.perf_counter()
+    for name, func in BENCHMARKS.items():
+        if args.only and name not in args.only:
+            continue
+        t0 = time.perf_counter()
+        if name == "peer_pymc" and not peer_pymc.available() and args.pymc_python:
+            res = pymc_elsewhere(args.pymc_python, args.quick)
+            res["python"] = args.pymc_python
+        else:
+            res = func(quick=args.quick)
+        res["seconds"] = time.perf_counter() - t0
+        if name == "peer_pymc" and res["rows"] and "sampler" in results:
+            ours = {r["posterior"]: r["inertiafit_ess_per_s"] for r in results["sampler"]["rows"]}
+            for r in res["rows"]:
+                r["inertiafit_ess_per_s_same_run"] = ours[r["posterior"]]
+                r["inertiafit_over_pymc"] = ours[r["posterior"]] / r["ess_per_s"]
+            res["table"] += "\ninertiafit ESS/s / PyMC ESS/s (this run): " + ", ".join(
+                f"{r['posterior']} {r['inertiafit_over_pymc']:.0f}x" for r in res["rows"]
+            )
+        results[name] = res
+        print(f"\n== {res['title']}  [{res['seconds']:.0f} s]")
+        print(res["table"])
+        sys.stdout.flush()
+    targets = [
+        {"benchmark": name, **t} for name, res in results.items() for t in res.get("targets", [])
+    ]
+    if targets:
+        print("\n== Targets")
+        print(
+            common.table(
+                [
+                    ("benchmark", "benchmark", ""),
+                    ("target", "target", ""),
+                    ("value", "measured", ""),
+                    ("status", "status", ""),
+                ],
+                targets,
+            )
+        )
+    total = time.perf_counter() - t_all
+    print(f"\nall benchmarks: {total:.0f} s")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(
+                {
+                    "machine": info,
+                    "quick": args.quick,
+                    "seconds": total,
+                    "targets": targets,
+                    "results": results,
+                },
+                fh,
+                indent=2,
+                default=str,
+            )
+        print(f"results written to {args.json}")
+
+
+if __name__ == "__main__":
+    main()
