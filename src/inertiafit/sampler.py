@@ -1,8 +1,10 @@
 """Run emcee on a :class:`~inertiafit.model.Model` until it has converged.
 
 The walkers explore ``(log a, log b)`` per body (see :mod:`inertiafit.model`), where the
-posterior is close to Gaussian and axis-aligned; a mixture of differential-evolution moves
-(80 %) and DE-snooker moves (20 %) suits that well. Sampling runs in chunks; after each chunk the
+posterior is close to Gaussian and axis-aligned. The default moves are 70 % independence
+Metropolis-Hastings from heavy-tailed proposals around the Laplace approximation
+(:class:`IndependenceMove`), 20 % differential evolution and 10 % DE-snooker; ``"de"`` (80/20
+DE/snooker) and ``"stretch"`` remain available. Sampling runs in chunks; after each chunk the
 integrated autocorrelation time ``tau`` of every coordinate is estimated, the first
 ``burn_factor * tau`` steps are dropped, and the run stops when
 
