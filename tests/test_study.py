@@ -10,9 +10,8 @@ import pytest
 
 from inertiafit.cli import main
 from inertiafit.errors import InputError
-from inertiafit.result import SUMMARY_COLUMNS, open_posterior
 from inertiafit.simulate import simulate_study
-from inertiafit.study import TRIAL_COLUMNS, analyse_study, process_study
+from inertiafit.study import analyse_study, process_study
 
 TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
 PRIORS = {
@@ -54,7 +53,7 @@ def test_pipeline_recovers_the_simulated_truth(tmp_path, seed, units):
     manifest = simulate(tmp_path / "study", seed, units=units)
     truth = truth_of(tmp_path / "study")
     result = analyse_study(manifest, seed=seed)
-    trials = result.processed.trials
+    trials = result.trials
     for label, cond in zip(("attachment", "attachment+weight"), ("A", "B"), strict=True):
         fast = trials[(trials.condition == label) & (trials.kind == "fast")]
         true_i = truth["conditions"][cond]["inertia"]
@@ -88,52 +87,10 @@ def small_study(tmp_path_factory):
     return folder
 
 
-def test_run_writes_every_output(small_study, tmp_path):
-    out = tmp_path / "out"
-    assert main(["run", str(small_study / "study.toml"), "--out", str(out), "--seed", "3"]) == 0
-    names = {p.name for p in out.iterdir()}
-    expected = {
-        "trials.csv",
-        "speed_effect.csv",
-        "summary.csv",
-        "identification.csv",
-        "comparison.csv",
-        "posterior.nc",
-        "report.html",
-        "corner-attachment.pdf",
-        "corner-attachment.png",
-        "corner-weight.pdf",
-        "corner-weight.png",
-        "fast-trials-attachment.png",
-        "fast-trials-attachment+weight.pdf",
-        "inertia-by-speed.png",
-        "inertia-by-speed.pdf",
-    }
-    assert expected <= names
-    trials = pd.read_csv(out / "trials.csv")
-    assert list(trials.columns) == TRIAL_COLUMNS
-    assert len(trials) == 2 + 2 * 3
-    assert set(trials.condition) == {"attachment", "attachment+weight"}
-    assert trials.file.iloc[0].startswith("data/")
-    summary = pd.read_csv(out / "summary.csv")
-    assert list(summary.columns) == SUMMARY_COLUMNS
-    assert len(summary) == 2 * 5
-    effect = pd.read_csv(out / "speed_effect.csv")
-    assert {"condition", "speed", "n", "mean", "sd", "F", "p"} <= set(effect.columns)
-    post = open_posterior(out / "posterior.nc")
-    assert post.bodies == ("attachment", "weight")
-    html = (out / "report.html").read_text()
-    assert html.count("data:image/png;base64,") >= 5
-    assert "http://" not in html
-    assert "https://" not in html
-
-
-def test_same_seed_same_summary(small_study, tmp_path):
-    for name in ("a", "b"):
-        assert main(["run", str(small_study / "study.toml"), "--out", str(tmp_path / name)]) == 0
-    assert (tmp_path / "a" / "summary.csv").read_bytes() == (
-        tmp_path / "b" / "summary.csv"
-    ).read_bytes()
+def test_same_seed_same_summary(small_study):
+    a = analyse_study(small_study / "study.toml", seed=3).posterior.summary()
+    b = analyse_study(small_study / "study.toml", seed=3).posterior.summary()
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
 
 
 def _copy(small_study, tmp_path):

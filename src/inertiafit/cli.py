@@ -1,4 +1,4 @@
-"""Command line: ``inertiafit fit | run | demo | priors``.
+"""Command line: ``inertiafit fit | run | demo | report | priors``.
 
 The command line only parses arguments and calls the library. Bad input ends with one line on
 stderr (``inertiafit: error: ...``) and exit status 2, never a traceback.
@@ -160,6 +160,26 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_common(demo, "demo-output")
 
+    report = sub.add_parser(
+        "report",
+        help="redraw the tables, figures and report.html of an output folder",
+        description="Redraw every table (CSV, Markdown, LaTeX), figure and report.html of a folder "
+        "written by 'run', 'demo' or 'fit' from its posterior.nc and trials.csv, without sampling "
+        "again.",
+    )
+    report.add_argument("folder", type=Path, metavar="DIR", help="an output folder")
+    report.add_argument(
+        "--formats",
+        default="pdf,png",
+        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+    )
+    report.add_argument(
+        "--hdi-prob",
+        type=_number,
+        default=0.95,
+        help="probability of the highest-density intervals (default 0.95)",
+    )
+
     sub.add_parser("priors", help="list the shipped priors")
     return parser
 
@@ -194,6 +214,13 @@ def _run(args) -> int:
     return 0
 
 
+def _report(args) -> int:
+    from inertiafit.rendering import redraw
+
+    redraw(args.folder, formats=args.formats.split(","), hdi_prob=args.hdi_prob)
+    return 0
+
+
 def _demo(args) -> int:
     from inertiafit.commands import run_demo
 
@@ -213,7 +240,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``inertiafit`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    handlers = {"fit": _fit, "run": _run, "demo": _demo, "priors": _priors}
+    handlers = {"fit": _fit, "run": _run, "demo": _demo, "report": _report, "priors": _priors}
     try:
         if hasattr(args, "hdi_prob") and not 0 < args.hdi_prob < 1:
             raise InputError(f"--hdi-prob: expected a probability in (0, 1), got {args.hdi_prob}")

@@ -229,8 +229,9 @@ def run_demo(
     import sys
 
     from inertiafit.outputs import output_folder
+    from inertiafit.rendering import write_study_outputs
     from inertiafit.simulate import paper_study
-    from inertiafit.study import analyse_study, write_study_outputs
+    from inertiafit.study import analyse_study
 
     say = progress or (lambda msg: print(msg, file=sys.stderr))
     out = Path(out)
@@ -243,7 +244,7 @@ def run_demo(
         say(f"writing {out}")
         write_study_outputs(folder, result, hdi_prob=hdi_prob)
         echo("=" * 100)
-        echo(f"{result.processed.study.name}: joint posterior of both bodies")
+        echo(f"{result.name}: joint posterior of both bodies")
         echo("=" * 100)
         echo(result.posterior.report(hdi_prob))
         echo("")
@@ -255,17 +256,18 @@ def run_demo(
             "hdi_lower",
             "hdi_upper",
             "baseline",
+            "ideal_in_hdi",
             "identified_by",
         ]
         echo(result.comparison[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
         echo("(ideal: textbook body; baseline: the paper's multi-start least squares)")
-        for w in result.processed.warnings:
+        for w in result.warnings:
             echo(f"warning: {w}")
         echo("")
         run_paper_demo(out=folder / "paper-numbers", seed=seed, hdi_prob=hdi_prob, echo=echo)
     echo(
-        f"wrote {out}/: report.html, summary.csv, trials.csv, speed_effect.csv, comparison.csv, "
-        "posterior.nc, figures; study/ (simulated trials); paper-numbers/"
+        f"wrote {out}/: report.html, summary, comparison, speed_effect and trials tables "
+        "(.csv/.md/.tex), posterior.nc, figures; study/ (simulated trials); paper-numbers/"
     )
 
 

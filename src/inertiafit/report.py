@@ -106,6 +106,14 @@ def write_report(
                 f"{html.escape(str(v))}</td></tr>"
             )
         parts.append("</tbody></table>")
+    # Records, once the page has loaded, how many embedded figures the browser decoded; a
+    # headless-browser test reads it back (nothing is fetched: the page stays offline).
+    parts.append(
+        "<script>window.addEventListener('load', function () { var n = 0;"
+        " for (var i = 0; i < document.images.length; i++) {"
+        " if (document.images[i].complete && document.images[i].naturalWidth > 0) { n++; } }"
+        " document.body.setAttribute('data-figures-drawn', String(n)); });</script>"
+    )
     parts.append("</body></html>")
     path = Path(path)
     path.write_text("\n".join(parts), encoding="utf-8")

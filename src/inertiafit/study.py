@@ -306,7 +306,24 @@ def study_model(processed: ProcessedStudy) -> Model:
     )
 
 
-def paper_baselines(processed: ProcessedStudy, priors: dict[str, Prior]) -> dict[str, Any]:
+def condition_gravity(trials: pd.DataFrame) -> dict[str, float]:
+    """Each condition's gravity moment from its quasi-static rows (inverse-variance mean)."""
+    out = {}
+    qs = trials[trials["kind"] == "quasi-static"]
+    for label, rows in qs.groupby("condition", sort=False):
+        w = 1 / rows["gravity_moment_se"].to_numpy(float) ** 2
+        out[str(label)] = float(np.sum(w * rows["gravity_moment"].to_numpy(float)) / w.sum())
+    return out
+
+
+def paper_baselines(
+    trials: pd.DataFrame,
+    conditions: dict[str, tuple[str, ...]],
+    priors: dict[str, Prior],
+    *,
+    gravity: float,
+    notes: list[str] | None = None,
+) -> dict[str, Any]:
     """The paper's estimator per body, as the paper applies it.
 
     A body measured alone gets the multi-start fit of its condition's mean ``I`` and ``M_g``;
@@ -317,22 +334,16 @@ def paper_baselines(processed: ProcessedStudy, priors: dict[str, Prior]) -> dict
     from inertiafit.baseline import paper_baseline
     from inertiafit.commands import BASELINE_METHOD
 
-    study = processed.study
-    trials = processed.trials
+    grav = condition_gravity(trials)
     means = {}
-    for label in study.conditions:
+    for label, bodies in conditions.items():
         fast = trials[(trials["condition"] == label) & (trials["kind"] == "fast")]
-        if len(fast) and label in processed.gravity:
-            means[frozenset(study.conditions[label])] = (
-                float(fast["inertia"].mean()),
-                processed.gravity[label].gravity_moment,
-            )
+        if len(fast) and label in grav:
+            means[frozenset(bodies)] = (float(fast["inertia"].mean()), grav[label])
     out = {}
     for name, prior in priors.items():
-        target = None
-        if frozenset([name]) in means:
-            target = means[frozenset([name])]
-        else:
+        target = means.get(frozenset([name]))
+        if target is None:
             for key, (i_b, g_b) in means.items():
                 rest = key - {name}
                 if name in key and rest in means:
@@ -348,29 +359,32 @@ def paper_baselines(processed: ProcessedStudy, priors: dict[str, Prior]) -> dict
                 nominal=prior.nominal,
                 lower=prior.lower,
                 upper=prior.upper,
-                gravity=study.gravity,
+                gravity=gravity,
                 method=BASELINE_METHOD,
             )
         except InputError as exc:
-            processed.warnings.append(f"baseline of '{name}' not computed: {exc}")
+            if notes is not None:
+                notes.append(f"baseline of '{name}' not computed: {exc}")
     return out
 
 
 def comparison_table(post, ideals, baselines, hdi_prob: float) -> pd.DataFrame:
     """Per body and parameter: ideal, posterior, baseline, differences, who identifies it.
 
-    The paper's Tables 2 and 3 with the posterior beside them.
+    The paper's Tables 2 and 3 with the posterior beside them. ``ideals`` maps a body to a dict
+    of its ideal values (SI units).
     """
     s = post.summary(hdi_prob).set_index(["body", "parameter"])
     ident = post.identification().set_index(["body", "parameter"])
     rows = []
     for body in post.bodies:
-        ideal = ideals[body].as_dict() if body in ideals else {}
+        ideal = ideals.get(body, {})
         base = baselines[body].estimate if body in baselines else {}
         for p in (*PARAMETERS, "inertia", "gravity_moment"):
             med = float(s.loc[(body, p), "median"])
-            iv = ideal.get(p, math.nan)
-            bv = base.get(p, math.nan)
+            lo, hi = float(s.loc[(body, p), "hdi_lower"]), float(s.loc[(body, p), "hdi_upper"])
+            iv = float(ideal.get(p, math.nan))
+            bv = float(base.get(p, math.nan))
             has_ideal = not math.isnan(iv)
             rows.append(
                 {
@@ -379,16 +393,12 @@ def comparison_table(post, ideals, baselines, hdi_prob: float) -> pd.DataFrame:
                     "unit": UNITS[p],
                     "ideal": iv,
                     "posterior_median": med,
-                    "hdi_lower": float(s.loc[(body, p), "hdi_lower"]),
-                    "hdi_upper": float(s.loc[(body, p), "hdi_upper"]),
+                    "hdi_lower": lo,
+                    "hdi_upper": hi,
                     "baseline": bv,
                     "posterior_vs_ideal": (med - iv) / iv if has_ideal else math.nan,
                     "baseline_vs_ideal": (bv - iv) / iv if has_ideal else math.nan,
-                    "ideal_in_hdi": (
-                        bool(s.loc[(body, p), "hdi_lower"] <= iv <= s.loc[(body, p), "hdi_upper"])
-                        if has_ideal
-                        else None
-                    ),
+                    "ideal_in_hdi": (lo <= iv <= hi) if has_ideal else None,
                     "sd_ratio": float(ident.loc[(body, p), "sd_ratio"]),
                     "identified_by": ident.loc[(body, p), "identified_by"],
                 }
@@ -398,26 +408,69 @@ def comparison_table(post, ideals, baselines, hdi_prob: float) -> pd.DataFrame:
 
 @dataclass
 class StudyResult:
-    """What :func:`run_study` produced.
+    """Everything the outputs of a study are drawn from.
 
     Attributes
     ----------
-    processed : ProcessedStudy
-        Per-trial results.
+    name : str
+        The study's name.
     posterior : Posterior
         Joint posterior over every body.
-    speed_effect : pandas.DataFrame
-        Per condition and speed: n, mean, SD; ANOVA and Tukey HSD.
-    comparison : pandas.DataFrame
-        Ideal vs posterior vs the paper's baseline, per body and parameter.
+    trials : pandas.DataFrame
+        A row per trial (columns :data:`TRIAL_COLUMNS`).
+    conditions : dict of str to tuple of str
+        Condition label → mounted bodies.
+    priors : dict of str to Prior
+        Each body's prior box.
+    ideals : dict of str to dict
+        Ideal (textbook) values of the bodies that declare one (SI units).
+    traces : dict of str to list of dict
+        Filtered fast trials for figures (empty when redrawn without the trial files).
+    warnings : list of str
+        Trial flags and other notes, one line each.
+    manifest : str
+        Path of the manifest.
+    gravity : float
+        m/s^2.
+    hdi_prob : float
+        Probability of the HDIs in the comparison table.
+    baselines : dict of str to BaselineResult, optional
+        The paper's estimator per body; computed from the trials when not given.
+    kind : str
+        ``"study"`` (from trial files) or ``"fit"`` (one body from numbers).
     """
 
-    processed: ProcessedStudy
+    name: str
     posterior: Any
-    speed_effect: pd.DataFrame
-    comparison: pd.DataFrame
-    baselines: dict[str, Any]
-    ideals: dict[str, Any]
+    trials: pd.DataFrame
+    conditions: dict[str, tuple[str, ...]]
+    priors: dict[str, Prior]
+    ideals: dict[str, dict[str, float]]
+    traces: dict[str, list[dict]]
+    warnings: list[str]
+    manifest: str
+    gravity: float
+    hdi_prob: float = 0.95
+    baselines: dict[str, Any] | None = None
+    kind: str = "study"  # or "fit": one body fitted from numbers (no trials)
+    speed_effect: pd.DataFrame = field(init=False)
+    comparison: pd.DataFrame = field(init=False)
+
+    def __post_init__(self) -> None:
+        from inertiafit.processing import speed_effect
+
+        self.speed_effect = speed_effect(self.trials[self.trials["kind"] == "fast"])
+        if self.baselines is None:
+            self.baselines = paper_baselines(
+                self.trials,
+                self.conditions,
+                self.priors,
+                gravity=self.gravity,
+                notes=self.warnings,
+            )
+        self.comparison = comparison_table(
+            self.posterior, self.ideals, self.baselines, self.hdi_prob
+        )
 
 
 def analyse_study(
@@ -429,7 +482,6 @@ def analyse_study(
 ) -> StudyResult:
     """Process every trial and sample the joint posterior (nothing written)."""
     from inertiafit.inference import fit
-    from inertiafit.processing import speed_effect
 
     if not 0 < hdi_prob < 1:
         raise InputError(f"--hdi-prob: expected a probability in (0, 1), got {hdi_prob}")
@@ -437,138 +489,32 @@ def analyse_study(
         study = load_study(study)
     say = echo or (lambda _msg: None)
     priors = study_priors(study)
-    ideals = study_ideals(study)
+    ideals = {name: body.as_dict(study.gravity) for name, body in study_ideals(study).items()}
     processed = process_study(study, echo=say)
     model = Model(priors, condition_evidence(processed), gravity=study.gravity)
     say(f"sampling the joint posterior of {len(priors)} bodies")
     inputs = {
         "manifest": str(study.path),
         "name": study.name,
+        "conditions": {k: list(v) for k, v in study.conditions.items()},
+        "ideals": ideals,
+        "warnings": processed.warnings,
         "trials": processed.trials.to_dict(orient="list"),
     }
     post = fit(model, seed=seed, inputs=inputs)
-    effect = speed_effect(processed.trials[processed.trials["kind"] == "fast"])
-    baselines = paper_baselines(processed, priors)
-    comparison = comparison_table(post, ideals, baselines, hdi_prob)
-    return StudyResult(processed, post, effect, comparison, baselines, ideals)
-
-
-def write_study_outputs(folder: Path, result: StudyResult, *, hdi_prob: float = 0.95) -> None:
-    """Every output file of ``run`` into ``folder`` (which must exist)."""
-    from inertiafit.plots import plot_fast_trials, plot_inertia_by_speed
-
-    post = result.posterior
-    csv = {"index": False, "float_format": "%.8g", "lineterminator": "\n"}
-    result.processed.trials.to_csv(folder / "trials.csv", **csv)
-    result.speed_effect.to_csv(folder / "speed_effect.csv", **csv)
-    post.write_summary(folder / "summary.csv", hdi_prob)
-    post.identification().to_csv(folder / "identification.csv", **csv)
-    result.comparison.to_csv(folder / "comparison.csv", **csv)
-    post.save(folder / "posterior.nc")
-    figures: dict[str, Any] = {}
-    for body in post.bodies:
-        truths = result.ideals[body].as_dict() if body in result.ideals else None
-        figures[f"corner-{body}"] = post.corner(body, truths=truths)
-    for cond, traces in result.processed.traces.items():
-        figures[f"fast-trials-{cond}"] = plot_fast_trials(traces, title=cond)
-    fast = result.processed.trials[result.processed.trials["kind"] == "fast"]
-    if len(fast):
-        figures["inertia-by-speed"] = plot_inertia_by_speed(fast)
-    for name, fig in figures.items():
-        fig.savefig(folder / f"{name}.pdf")
-        fig.savefig(folder / f"{name}.png", dpi=150)
-    _write_html(folder / "report.html", result, figures, hdi_prob)
-
-
-def _write_html(path: Path, result: StudyResult, figures: dict, hdi_prob: float) -> None:
-    from inertiafit.report import write_report
-
-    post = result.posterior
-    study = result.processed.study
-    a = post.attrs
-    diag = (
-        f"{a['n_walkers']} walkers, {a['n_steps']} steps ({a['burn']} dropped), "
-        f"max tau {a['tau_max']:.2f} steps, acceptance {a['acceptance']:.2f}, "
-        f"sampling {a['sampling_seconds']:.1f} s; "
-        + (
-            "converged (N > 50 tau, R-hat <= 1.01, bulk ESS >= 1000)."
-            if post.converged
-            else "NOT converged: intervals are unreliable."
-        )
+    return StudyResult(
+        name=study.name,
+        posterior=post,
+        trials=processed.trials,
+        conditions=dict(study.conditions),
+        priors=priors,
+        ideals=ideals,
+        traces=processed.traces,
+        warnings=list(processed.warnings),
+        manifest=str(study.path),
+        gravity=study.gravity,
+        hdi_prob=hdi_prob,
     )
-    summary = post.summary(hdi_prob)
-    sections: list[tuple[str, list]] = [
-        (
-            "Posterior",
-            [
-                (f"{100 * hdi_prob:g}% highest-density intervals; every body's (m, x, rho) from one "
-                "joint posterior over all conditions."),
-                summary,
-                "pre:" + post.report(hdi_prob),
-            ],
-        ),
-        (
-            "Comparison with ideal bodies and the paper's estimator",
-            [
-                ("ideal: textbook model from the manifest; baseline: the paper's multi-start least "
-                "squares (feasible-region mean; a body added to another is fitted to the difference "
-                "of condition means, as the paper does)."),
-                result.comparison,
-            ],
-        ),
-        (
-            "Corner plots",
-            [
-                (
-                    f"{b}: axes of m, x, rho span the prior box; orange lines: ideal body"
-                    if b in result.ideals
-                    else b,
-                    figures[f"corner-{b}"],
-                )
-                for b in post.bodies
-            ],
-        ),
-        (
-            "Trials",
-            [
-                *[
-                    (
-                        f"{c}: filtered velocity and acceleration; grey: uniform-acceleration windows",
-                        figures[f"fast-trials-{c}"],
-                    )
-                    for c in result.processed.traces
-                ],
-                *(
-                    [
-                        (
-                            "inertia per trial and speed (mean ± SD in orange)",
-                            figures["inertia-by-speed"],
-                        )
-                    ]
-                    if "inertia-by-speed" in figures
-                    else []
-                ),
-                result.processed.trials,
-            ],
-        ),
-        ("Speed effect", [result.speed_effect]),
-        (
-            "Diagnostics",
-            [
-                diag,
-                post.identification(),
-                *(["warn:" + w for w in result.processed.warnings] or ["No trial flags."]),
-            ],
-        ),
-    ]
-    notes = {
-        "manifest": str(study.path),
-        "study": study.name,
-        "seed": a.get("seed"),
-        "versions": a.get("versions"),
-        "gravity (m/s^2)": study.gravity,
-    }
-    write_report(path, title=f"inertiafit: {study.name}", sections=sections, notes=notes)
 
 
 def run_study(
@@ -577,18 +523,20 @@ def run_study(
     out: str | Path,
     seed: int = 0,
     hdi_prob: float = 0.95,
+    formats: tuple[str, ...] = ("pdf", "png"),
     echo: Callable[[str], None] = print,
     progress: Callable[[str], None] | None = None,
 ) -> StudyResult:
     """``inertiafit run``: the whole pipeline, outputs written to ``out`` (replaced whole)."""
     from inertiafit.outputs import output_folder
+    from inertiafit.rendering import write_study_outputs
 
     say = progress or (lambda msg: print(msg, file=sys.stderr))
     result = analyse_study(manifest, seed=seed, hdi_prob=hdi_prob, echo=say)
     say(f"writing {out}")
     with output_folder(out) as folder:
-        write_study_outputs(folder, result, hdi_prob=hdi_prob)
+        write_study_outputs(folder, result, hdi_prob=hdi_prob, formats=formats)
     echo(result.posterior.report(hdi_prob))
-    for w in result.processed.warnings:
+    for w in result.warnings:
         echo(f"warning: {w}")
     return result

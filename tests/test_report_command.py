@@ -1,0 +1,157 @@
+"""inertiafit report: redraw tables, figures and report.html from saved results."""
+
+import re
+
+import pandas as pd
+import pytest
+
+from inertiafit.cli import main
+from inertiafit.result import SUMMARY_COLUMNS, open_posterior
+from inertiafit.simulate import simulate_study
+from inertiafit.study import TRIAL_COLUMNS
+
+TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
+PRIORS = {
+    "attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225},
+    "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
+}
+IDEAL = """
+[bodies.weight.ideal]
+shape = "solid-disk"
+radius = 0.05
+thickness = 0.06
+mass = 2.92
+com_distance = 0.45
+"""
+
+
+@pytest.fixture(scope="module")
+def study_out(tmp_path_factory):
+    root = tmp_path_factory.mktemp("rep")
+    manifest = simulate_study(
+        root / "study",
+        bodies=TRUTH,
+        conditions=[("attachment",), ("attachment", "weight")],
+        speeds=(240, 300),
+        trials_per_speed=3,
+        seed=4,
+        priors=PRIORS,
+    )
+    with manifest.open("a") as fh:
+        fh.write(IDEAL)
+    out = root / "out"
+    assert main(["run", str(manifest), "--out", str(out), "--seed", "2"]) == 0
+    return out
+
+
+def test_run_writes_every_output(study_out):
+    trials = pd.read_csv(study_out / "trials.csv")
+    assert list(trials.columns) == TRIAL_COLUMNS
+    assert len(trials) == 2 + 2 * 6
+    assert set(trials.condition) == {"attachment", "attachment+weight"}
+    assert trials.file.iloc[0].startswith("data/")
+    summary = pd.read_csv(study_out / "summary.csv")
+    assert list(summary.columns) == SUMMARY_COLUMNS
+    assert len(summary) == 2 * 5
+    effect = pd.read_csv(study_out / "speed_effect.csv")
+    assert {"condition", "speed", "n", "mean", "sd", "F", "p"} <= set(effect.columns)
+    post = open_posterior(study_out / "posterior.nc")
+    assert post.bodies == ("attachment", "weight")
+    html = (study_out / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= 10
+    assert "http://" not in html
+    assert "https://" not in html  # readable offline
+
+
+def test_run_writes_tables_in_three_formats_and_the_paper_figures(study_out):
+    for stem in ("summary", "comparison", "speed_effect", "identification"):
+        for ext in ("csv", "md", "tex"):
+            assert (study_out / f"{stem}.{ext}").is_file(), f"{stem}.{ext}"
+    assert r"\toprule" in (study_out / "comparison.tex").read_text()
+    for stem in (
+        "corner-attachment",
+        "corner-weight",
+        "corner-joint",
+        "identification-weight",
+        "trace-weight",
+        "rank-weight",
+        "fast-trials-attachment",
+        "inertia-by-speed",
+    ):
+        assert (study_out / f"{stem}.pdf").is_file(), stem
+        assert (study_out / f"{stem}.png").is_file(), stem
+    comp = pd.read_csv(study_out / "comparison.csv").set_index(["body", "parameter"])
+    # the disk's ideal values lie inside the posterior intervals (its rho is prior-decided)
+    for p in ("mass", "com_distance", "radius_of_gyration", "inertia"):
+        assert bool(comp.loc[("weight", p), "ideal_in_hdi"]), p
+    assert comp.loc[("weight", "mass"), "baseline"] == pytest.approx(2.92, rel=0.03)
+
+
+def test_report_redraws_without_sampling(study_out, capsys):
+    nc = (study_out / "posterior.nc").read_bytes()
+    (study_out / "corner-weight.png").unlink()
+    assert main(["report", str(study_out), "--formats", "png,svg", "--hdi-prob", "0.8"]) == 0
+    assert (study_out / "corner-weight.png").is_file()
+    assert (study_out / "corner-weight.svg").read_text().lstrip().startswith("<?xml")
+    assert (study_out / "posterior.nc").read_bytes() == nc
+    summary = pd.read_csv(study_out / "summary.csv")
+    assert (summary.hdi_prob == 0.8).all()
+    html = (study_out / "report.html").read_text()
+    assert "80% HDI" in html
+    assert "redrew" in capsys.readouterr().out
+
+
+def test_report_on_a_fit_folder(tmp_path):
+    out = tmp_path / "fit"
+    assert (
+        main(
+            [
+                "fit",
+                "--prior",
+                "disk-3kg",
+                "--inertia",
+                "0.594",
+                "--inertia-se",
+                "0.0105",
+                "--gravity-moment",
+                "12.8",
+                "--gravity-moment-se",
+                "0.05",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    before = (out / "comparison.csv").read_text()
+    assert main(["report", str(out)]) == 0
+    assert (out / "report.html").is_file()
+    assert (out / "identification-disk-3kg.png").is_file()
+    assert (out / "comparison.csv").read_text() == before  # fit's own comparison is kept
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["report", "{tmp}/nowhere"], "no such output folder"),
+        (["report", "{tmp}"], "posterior file not found"),
+        (["report", "{out}", "--formats", "gif"], "--formats"),
+        (["report", "{out}", "--hdi-prob", "2"], "--hdi-prob"),
+    ],
+)
+def test_report_bad_input(study_out, tmp_path, capsys, args, match):
+    argv = [a.format(tmp=tmp_path, out=study_out) for a in args]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err
+    assert re.search(match, err), err
+
+
+def test_report_rejects_a_foreign_trials_table(study_out, tmp_path, capsys):
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(study_out, copy)
+    pd.read_csv(copy / "trials.csv").drop(columns=["inertia"]).to_csv(copy / "trials.csv")
+    assert main(["report", str(copy)]) == 2
+    assert "trials.csv: column 'inertia' missing" in capsys.readouterr().err
