@@ -26,12 +26,19 @@ test-fast: $(STAMP)
 	$(PY) -m pytest -n 2 -m "not slow" $(PYTEST_ARGS)
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check src tests examples benchmarks
-	$(VENV)/bin/ruff format --check src tests examples benchmarks
+	$(VENV)/bin/ruff check src tests examples benchmarks docs/conf.py docs/_ext
+	$(VENV)/bin/ruff format --check src tests examples benchmarks docs/conf.py docs/_ext
 	$(VENV)/bin/mypy
 
 bench: $(STAMP)
-	$(PY) benchmarks/sampler.py
+	$(PY) benchmarks/run.py
+
+$(VENV)/.docs-installed: pyproject.toml $(STAMP)
+	$(PY) -m pip install --quiet --group docs
+	@touch $@
+
+docs: $(VENV)/.docs-installed
+	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) build dist .pytest_cache
