@@ -180,3 +180,21 @@ def test_command_is_installed_and_quiet_when_not_a_terminal(tmp_path):
     )
     assert "biodex-elbow-attachment" in res.stdout
     assert res.stderr == ""
+
+
+def test_run_rejects_unknown_figure_formats_before_doing_anything(tmp_path, capsys):
+    assert (
+        main(
+            [
+                "run",
+                str(tmp_path / "study.toml"),
+                "--formats",
+                "pdf,gif",
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 2
+    )
+    assert "--formats" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

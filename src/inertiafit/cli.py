@@ -149,6 +149,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("study", type=Path, metavar="STUDY", help="the study manifest (TOML)")
     _add_common(run, "inertiafit-output")
+    run.add_argument(
+        "--formats",
+        default="pdf,png",
+        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+    )
 
     demo = sub.add_parser(
         "demo",
@@ -208,9 +213,11 @@ def _fit(args) -> int:
 
 
 def _run(args) -> int:
+    from inertiafit.rendering import check_formats
     from inertiafit.study import run_study
 
-    run_study(args.study, out=args.out, seed=args.seed, hdi_prob=args.hdi_prob)
+    formats = check_formats(args.formats.split(","))
+    run_study(args.study, out=args.out, seed=args.seed, hdi_prob=args.hdi_prob, formats=formats)
     return 0
 
 

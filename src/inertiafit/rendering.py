@@ -35,8 +35,9 @@ def check_formats(formats) -> tuple[str, ...]:
 
 
 def _save(fig, folder: Path, stem: str, formats: tuple[str, ...]) -> None:
-    for fmt in formats:
-        fig.savefig(folder / f"{stem}.{fmt}", **({"dpi": 150} if fmt == "png" else {}))
+    from inertiafit.plots import save_figure
+
+    save_figure(fig, folder / stem, formats, dpi=150)
 
 
 def study_figures(result: StudyResult) -> dict[str, Any]:
