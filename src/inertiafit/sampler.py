@@ -357,13 +357,20 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
     params: dict[str, np.ndarray] = {}
     diag: dict[str, float] = {}
     while sampler.iteration < s.max_steps:
-        steps = min(s.chunk, s.max_steps - sampler.iteration)
+        # Chunks grow with the chain, so the diagnostics cost a bounded share of the run.
+        steps = min(max(s.chunk, sampler.iteration // 4), s.max_steps - sampler.iteration)
         state = sampler.run_mcmc(state, steps, progress=False)
         chain = sampler.get_chain()  # (steps, walkers, dim)
         tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
         tau_max = float(np.max(tau))
         burn = min(math.ceil(s.burn_factor * tau_max), sampler.iteration // 2)
         kept = np.swapaxes(chain[burn:], 0, 1)  # (walkers, draws, dim)
+        long_enough = sampler.iteration > s.tau_factor * tau_max
+        if not long_enough and sampler.iteration < s.max_steps:
+            # ESS and R-hat of every quantity cost more than the steps: wait for 50 tau.
+            diag = {"ess_bulk_min": math.nan, "r_hat_max": math.nan, "tau_max": tau_max}
+            _progress(show, sampler.iteration, s.max_steps, tau_max, math.nan, t0)
+            continue
         params = model.parameters(kept, np.random.default_rng([seed, 1]))
         ess_min, rhat_max = np.inf, 0.0
         for arr in params.values():
@@ -372,11 +379,7 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
                 rhat_max = max(rhat_max, float(rhat(arr[..., k])))
         diag = {"ess_bulk_min": ess_min, "r_hat_max": rhat_max, "tau_max": tau_max}
         _progress(show, sampler.iteration, s.max_steps, tau_max, ess_min, t0)
-        if (
-            sampler.iteration > s.tau_factor * tau_max
-            and rhat_max <= s.r_hat_max
-            and ess_min >= s.ess_min
-        ):
+        if long_enough and rhat_max <= s.r_hat_max and ess_min >= s.ess_min:
             converged = True
             break
     if show:
