@@ -98,11 +98,14 @@ def _combine_gravity(fits: list, where: str):
     )
 
 
-def _trace(filtered, window, speed: float) -> dict:
-    """The moving part of a filtered fast trial, decimated for plotting."""
-    t = filtered["time"].to_numpy()
-    v = filtered["velocity"].to_numpy()
-    a = filtered["acceleration"].to_numpy()
+def _trace(trial, window, speed: float, *, cutoff: float, order: int) -> dict:
+    """The moving part of a fast trial, velocity filtered as for the estimate, for plotting."""
+    from inertiafit.processing import lowpass_array
+
+    t = trial["time"].to_numpy()
+    rate = float(trial.attrs["sampling_rate"])
+    v = lowpass_array(trial["velocity"].to_numpy(), rate, cutoff=cutoff, order=order)
+    a = np.gradient(v, t)
     moving = np.flatnonzero(np.abs(v) > 0.02 * np.max(np.abs(v)))
     lo, hi = (moving[0], moving[-1] + 1) if len(moving) else (0, len(t))
     step = max(1, (hi - lo) // 600)
@@ -145,7 +148,7 @@ def process_study(
         On any unreadable trial, unusable window, negative inertia, or sampling rates that
         differ between trials; the message names the file.
     """
-    from inertiafit.processing import estimate_inertia, fit_gravity, lowpass
+    from inertiafit.processing import estimate_inertia, fit_gravity
 
     if not isinstance(study, Study):
         study = load_study(study)
@@ -194,9 +197,14 @@ def process_study(
             )
         notes.extend(str(w.message) for w in caught if issubclass(w.category, TrialWarning))
         rows[spec.index] = _row(study, spec, inertia=est)
-        filtered = lowpass(ds, cutoff=cutoff, order=order)
         traces.setdefault(spec.condition, []).append(
-            _trace(filtered, (est.window_start, est.window_end), float(spec.speed or 0.0))
+            _trace(
+                ds,
+                (est.window_start, est.window_end),
+                float(spec.speed or 0.0),
+                cutoff=cutoff,
+                order=order,
+            )
         )
     trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS)
     return ProcessedStudy(

@@ -15,6 +15,7 @@ staircase twice turns each step into a spike of about ``step * rate^2`` (1700 ra
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -91,7 +92,13 @@ def design(
             f"{where}filter cutoff: {cutoff:g} Hz is at or above the Nyquist frequency "
             f"{nyquist:g} Hz of this {rate:g} Hz recording; choose a cut-off below {nyquist:g} Hz"
         )
-    return signal.butter(int(order), cutoff, btype="low", fs=rate, output="sos")
+    return _butter(int(order), float(cutoff), float(rate)).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _butter(order: int, cutoff: float, rate: float) -> NDArray:
+    # A study designs the same filter for every trial; design it once.
+    return signal.butter(order, cutoff, btype="low", fs=rate, output="sos")
 
 
 def lowpass_array(
