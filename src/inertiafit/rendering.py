@@ -126,7 +126,12 @@ def write_study_outputs(
     figures = study_figures(result)
     for stem, fig in figures.items():
         _save(fig, folder, stem, formats)
-    write_html(folder / "report.html", result, figures, hdi_prob)
+    # Embed the PNGs just written rather than drawing every figure once more.
+    embedded = {
+        stem: (folder / f"{stem}.png").read_bytes() if "png" in formats else fig
+        for stem, fig in figures.items()
+    }
+    write_html(folder / "report.html", result, embedded, hdi_prob)
 
 
 def write_html(path: Path, result: StudyResult, figures: dict, hdi_prob: float) -> None:

@@ -62,7 +62,7 @@ def write_report(
     title : str
         Page title.
     sections : list of (heading, items)
-        Items are :class:`pandas.DataFrame` (a table), Matplotlib figures (embedded PNG),
+        Items are :class:`pandas.DataFrame` (a table), Matplotlib figures or PNG bytes (embedded),
         ``("caption", figure)`` pairs, or strings (a paragraph; ``pre:`` prefix for
         preformatted text, ``warn:`` for a warning).
     notes : mapping, optional
@@ -87,7 +87,11 @@ def write_report(
                 else:
                     parts.append(f"<p class='note'>{html.escape(item)}</p>")
             else:
-                data = figure_png_base64(item)
+                data = (
+                    base64.b64encode(item).decode("ascii")
+                    if isinstance(item, bytes)
+                    else figure_png_base64(item)
+                )
                 parts.append(
                     f"<figure><img alt='{html.escape(caption or heading)}' "
                     f"src='data:image/png;base64,{data}'>"

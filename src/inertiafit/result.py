@@ -71,6 +71,7 @@ class Posterior:
 
     def __init__(self, tree: xr.DataTree) -> None:
         self.tree = tree
+        self._cache: dict[tuple, pd.DataFrame] = {}  # tables are read-only views of the tree
         self.bodies = tuple(str(b) for b in np.asarray(tree["posterior"]["body"]).tolist())
 
     # -- access ---------------------------------------------------------------------------
@@ -102,12 +103,18 @@ class Posterior:
         hdi_prob : float
             Probability mass of the highest-density interval.
         """
-        from arviz_stats import ess, hdi, rhat
-
         if not 0 < hdi_prob < 1:
             from inertiafit.errors import InputError
 
             raise InputError(f"--hdi-prob: expected a probability in (0, 1), got {hdi_prob}")
+        key = ("summary", float(hdi_prob))
+        if key not in self._cache:
+            self._cache[key] = self._summary(hdi_prob)
+        return self._cache[key].copy()
+
+    def _summary(self, hdi_prob: float) -> pd.DataFrame:
+        from arviz_stats import ess, hdi, rhat
+
         rows = []
         for body in self.bodies:
             for p in REPORTED:
@@ -137,6 +144,11 @@ class Posterior:
         the prior box, so only the prior speaks. ``minimum_mass`` is the bound
         ``(M_g/g)^2 / I`` at the posterior medians.
         """
+        if ("identification",) not in self._cache:
+            self._cache[("identification",)] = self._identification()
+        return self._cache[("identification",)].copy()
+
+    def _identification(self) -> pd.DataFrame:
         rows = []
         g = float(self.tree["constant_data"]["gravity"])
         for body in self.bodies:
