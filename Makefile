@@ -6,7 +6,7 @@ STAMP    := $(VENV)/.installed
 DEMO_OUT ?= demo-output
 PYTEST_ARGS ?=
 
-.PHONY: demo test test-fast lint bench docs clean
+.PHONY: demo test test-fast lint bench bench-quick docs clean
 
 $(PY):
 	@PYTHON=$$(tools/find-python) && echo "creating $(VENV) with $$PYTHON" && "$$PYTHON" -m venv $(VENV)
@@ -31,7 +31,10 @@ lint: $(STAMP)
 	$(VENV)/bin/mypy
 
 bench: $(STAMP)
-	$(PY) benchmarks/run.py
+	$(PY) benchmarks/run.py --json bench-results.json
+
+bench-quick: $(STAMP)
+	$(PY) benchmarks/run.py --quick
 
 $(VENV)/.docs-installed: pyproject.toml $(STAMP)
 	$(PY) -m pip install --quiet --group docs
