@@ -116,8 +116,13 @@ def run_fit(
     seed: int = 0,
     hdi_prob: float = 0.95,
     echo=print,
+    shown_as: str | Path | None = None,
 ):
-    """``inertiafit fit``: posterior of one body, written to ``out`` and printed."""
+    """``inertiafit fit``: posterior of one body, written to ``out`` and printed.
+
+    ``shown_as`` is the folder named in the closing line when ``out`` is a temporary folder
+    that will be renamed (the demo).
+    """
     from inertiafit.inference import fit_body
     from inertiafit.outputs import output_folder
 
@@ -147,7 +152,7 @@ def run_fit(
     echo("")
     echo(format_comparison(table, prior_obj, hdi_prob))
     echo(
-        f"\nwrote {Path(out)}/: summary.csv identification.csv comparison.csv posterior.nc "
+        f"\nwrote {Path(shown_as or out)}/: summary.csv identification.csv comparison.csv posterior.nc "
         "corner.pdf corner.png"
     )
     return post
@@ -264,7 +269,13 @@ def run_demo(
         for w in result.warnings:
             echo(f"warning: {w}")
         echo("")
-        run_paper_demo(out=folder / "paper-numbers", seed=seed, hdi_prob=hdi_prob, echo=echo)
+        run_paper_demo(
+            out=folder / "paper-numbers",
+            seed=seed,
+            hdi_prob=hdi_prob,
+            echo=echo,
+            shown_as=out / "paper-numbers",
+        )
     echo(
         f"wrote {out}/: report.html, summary, comparison, speed_effect and trials tables "
         "(.csv/.md/.tex), posterior.nc, figures; study/ (simulated trials); paper-numbers/"
@@ -272,10 +283,16 @@ def run_demo(
 
 
 def run_paper_demo(
-    *, out: str | Path = "demo-output", seed: int = 0, hdi_prob: float = 0.95, echo=print
+    *,
+    out: str | Path = "demo-output",
+    seed: int = 0,
+    hdi_prob: float = 0.95,
+    echo=print,
+    shown_as: str | Path | None = None,
 ) -> None:
     """The paper's two bodies from its reported numbers (Son et al., section 3 and Tables 2-3)."""
     out = Path(out)
+    shown = Path(shown_as or out)
     for case in paper_cases():
         echo("=" * 100)
         echo(case["title"])
@@ -292,5 +309,6 @@ def run_paper_demo(
             seed=seed,
             hdi_prob=hdi_prob,
             echo=echo,
+            shown_as=shown / case["folder"],
         )
         echo("")
