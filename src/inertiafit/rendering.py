@@ -323,6 +323,10 @@ def load_study_result(folder: str | Path, *, hdi_prob: float = 0.95) -> StudyRes
         baselines = _fit_baseline(post, priors[body], inputs, gravity)
     traces: dict[str, list[dict]] = {}
     manifest = inputs.get("manifest", "")
+    if manifest and not Path(manifest).is_file():
+        # The demo writes its study inside the output folder, under a temporary name.
+        moved = folder / "study" / Path(manifest).name
+        manifest = str(moved) if moved.is_file() else manifest
     if manifest and Path(manifest).is_file() and len(trials):
         from inertiafit.study import process_study
 
