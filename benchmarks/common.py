@@ -129,3 +129,37 @@ def table(columns: Sequence[tuple[str, str, str]], rows: Sequence[dict]) -> str:
 def verdict(value: float, limit: float, *, below: bool = True) -> str:
     ok = value <= limit if below else value >= limit
     return "met" if ok else "NOT met"
+
+
+def standalone(
+    run: Callable[..., dict],
+    doc: str,
+    *,
+    seed: int,
+    quick_help: str,
+    options: dict[str, dict] | None = None,
+) -> None:
+    """Command line of one benchmark run alone: ``--json``, ``--seed``, ``--quick``.
+
+    ``options`` maps further flags to their ``add_argument`` keywords; their values are passed
+    to ``run`` by name (``--max-steps`` as ``max_steps``).
+    """
+    import argparse
+    import json
+
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--json", help="also write the results as JSON to this file")
+    parser.add_argument("--seed", type=int, default=seed)
+    parser.add_argument("--quick", action="store_true", help=quick_help)
+    for flag, kwargs in (options or {}).items():
+        parser.add_argument(flag, **kwargs)
+    args = parser.parse_args()
+    extra = {
+        name: getattr(args, name)
+        for name in (flag.lstrip("-").replace("-", "_") for flag in options or {})
+    }
+    result = run(quick=args.quick, seed=args.seed, **extra)
+    print(result["table"])
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(result, fh, indent=2)

@@ -12,7 +12,6 @@ Run:  .venv/bin/python benchmarks/end_to_end.py [--quick] [--json FILE]
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -22,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import table
+from common import standalone, table
 
 RATIO_TARGET = 4.0
 MEMORY_TARGET_MB = 400.0
@@ -327,16 +326,7 @@ def run(*, quick: bool = False, seed: int = 11) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--json", help="also write the results as JSON to this file")
-    parser.add_argument("--seed", type=int, default=11)
-    parser.add_argument("--quick", action="store_true", help="fewer repeats")
-    args = parser.parse_args()
-    result = run(quick=args.quick, seed=args.seed)
-    print(result["table"])
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=2)
+    standalone(run, __doc__, seed=11, quick_help="fewer repeats")
 
 
 if __name__ == "__main__":

@@ -14,12 +14,10 @@ that has PyMC and inertiafit:  /path/to/venv/bin/python benchmarks/peer_pymc.py 
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 
 import numpy as np
-from common import QUANTITIES, accuracy, table
+from common import QUANTITIES, accuracy, standalone, table
 
 G = 9.81
 
@@ -146,16 +144,7 @@ def run(*, quick: bool = False, seed: int = 1) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--json", help="also write the results as JSON to this file")
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--quick", action="store_true", help="500 tuning + 500 draws")
-    args = parser.parse_args()
-    result = run(quick=args.quick, seed=args.seed)
-    print(result["table"])
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=2)
+    standalone(run, __doc__, seed=1, quick_help="500 tuning + 500 draws")
 
 
 if __name__ == "__main__":

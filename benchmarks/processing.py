@@ -11,15 +11,13 @@ Run:  .venv/bin/python benchmarks/processing.py [--quick] [--json FILE]
 
 from __future__ import annotations
 
-import argparse
-import json
 import tempfile
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from common import best_of, table
+from common import best_of, standalone, table
 from scipy import signal
 
 TARGET = 3.0
@@ -159,16 +157,7 @@ def run(*, quick: bool = False, seed: int = 7) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--json", help="also write the results as JSON to this file")
-    parser.add_argument("--seed", type=int, default=7)
-    parser.add_argument("--quick", action="store_true", help="fewer repeats")
-    args = parser.parse_args()
-    result = run(quick=args.quick, seed=args.seed)
-    print(result["table"])
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=2)
+    standalone(run, __doc__, seed=7, quick_help="fewer repeats")
 
 
 if __name__ == "__main__":

@@ -13,14 +13,12 @@ Run:  .venv/bin/python benchmarks/sampler.py [--quick] [--json FILE]
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 
 import emcee
 import numpy as np
 from arviz_stats import ess
-from common import QUANTITIES, accuracy, table
+from common import QUANTITIES, accuracy, standalone, table
 
 from inertiafit.inference import fit
 from inertiafit.model import Condition, Model
@@ -200,16 +198,7 @@ def run(*, quick: bool = False, seed: int = 1) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--json", help="also write the results as JSON to this file")
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--quick", action="store_true", help="shorter plain-emcee chains")
-    args = parser.parse_args()
-    result = run(quick=args.quick, seed=args.seed)
-    print(result["table"])
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=2)
+    standalone(run, __doc__, seed=1, quick_help="shorter plain-emcee chains")
 
 
 if __name__ == "__main__":

@@ -19,8 +19,6 @@ Run:  .venv/bin/python benchmarks/scaling.py [--quick] [--json FILE]
 
 from __future__ import annotations
 
-import argparse
-import json
 import tempfile
 import time
 import tomllib
@@ -28,7 +26,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from common import table
+from common import standalone, table
 
 
 def segment_study(folder: Path, k: int, seed: int) -> Path:
@@ -218,17 +216,13 @@ def run(*, quick: bool = False, seed: int = 5, max_steps: int | None = None) -> 
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--json", help="also write the results as JSON to this file")
-    parser.add_argument("--seed", type=int, default=5)
-    parser.add_argument("--quick", action="store_true", help="K up to 20, 3 batch studies")
-    parser.add_argument("--max-steps", type=int, help="sampler step bound (2000; quick 1000)")
-    args = parser.parse_args()
-    result = run(quick=args.quick, seed=args.seed, max_steps=args.max_steps)
-    print(result["table"])
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=2)
+    standalone(
+        run,
+        __doc__,
+        seed=5,
+        quick_help="K up to 20, 3 batch studies",
+        options={"--max-steps": {"type": int, "help": "sampler step bound (2000; quick 1000)"}},
+    )
 
 
 if __name__ == "__main__":
