@@ -246,3 +246,18 @@ def test_one_attachment_several_segments_share_its_uncertainty(tmp_path):
         post.draws("forearm1", "inertia").ravel(), post.draws("forearm2", "inertia").ravel()
     )[0, 1]
     assert r12 > 0.1
+
+
+def test_several_quasi_static_trials_combine_by_inverse_variance():
+    from inertiafit.study import condition_gravity
+
+    rows = pd.DataFrame(
+        {
+            "condition": ["A", "A", "B"],
+            "kind": ["quasi-static"] * 3,
+            "gravity_moment": [7.0, 7.3, 19.0],
+            "gravity_moment_se": [0.1, 0.2, 0.05],
+        }
+    )
+    # weights 100 and 25: (700 + 182.5) / 125
+    assert condition_gravity(rows) == pytest.approx({"A": 7.06, "B": 19.0})

@@ -82,16 +82,23 @@ def _relative(path: Path, base: Path) -> str:
         return str(path)
 
 
+def _inverse_variance_mean(values, ses) -> tuple[float, float]:
+    """Weighted mean of estimates with standard errors ``ses``, and its standard error."""
+    w = 1 / np.asarray(ses, float) ** 2
+    return float(np.sum(w * np.asarray(values, float)) / w.sum()), float(1 / math.sqrt(w.sum()))
+
+
 def _combine_gravity(fits: list, where: str):
     """One gravity model from several quasi-static fits: inverse-variance means."""
     if len(fits) == 1:
         return fits[0]
-    w = np.array([1 / f.gravity_moment_se**2 for f in fits])
-    mean = lambda name: float(np.sum(w * [getattr(f, name) for f in fits]) / w.sum())
+    ses = [f.gravity_moment_se for f in fits]
+    mean = lambda name: _inverse_variance_mean([getattr(f, name) for f in fits], ses)[0]
+    moment, moment_se = _inverse_variance_mean([f.gravity_moment for f in fits], ses)
     return dataclasses.replace(
         fits[0],
-        gravity_moment=mean("gravity_moment"),
-        gravity_moment_se=float(1 / math.sqrt(w.sum())),
+        gravity_moment=moment,
+        gravity_moment_se=moment_se,
         gravity_phase=mean("gravity_phase"),
         offset=mean("offset"),
         source=where,
@@ -319,8 +326,9 @@ def condition_gravity(trials: pd.DataFrame) -> dict[str, float]:
     out = {}
     qs = trials[trials["kind"] == "quasi-static"]
     for label, rows in qs.groupby("condition", sort=False):
-        w = 1 / rows["gravity_moment_se"].to_numpy(float) ** 2
-        out[str(label)] = float(np.sum(w * rows["gravity_moment"].to_numpy(float)) / w.sum())
+        out[str(label)] = _inverse_variance_mean(
+            rows["gravity_moment"], rows["gravity_moment_se"]
+        )[0]
     return out
 
 
