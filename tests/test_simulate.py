@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 import tomllib
 
 import numpy as np
@@ -66,10 +65,8 @@ def test_noise_free_torque_is_the_rigid_body_equation():
     assert theta[-1] == pytest.approx(math.pi / 2, abs=1e-6)
 
 
-def test_quasi_static_trial_is_90_s_at_1_khz_and_fast_to_make():
-    start = time.perf_counter()
+def test_quasi_static_trial_is_90_s_at_1_khz():
     trial = simulate_trial(inertia=0.2, gravity_moment=6.7, kind="quasi-static", rng=1)
-    assert time.perf_counter() - start < 0.5
     assert trial.sizes["time"] >= 90_000
     assert trial.attrs["speed"] == 1.0
     assert np.median(np.abs(trial["velocity"].values)) == pytest.approx(1 * DEG, rel=0.1)
@@ -205,11 +202,9 @@ def test_study_rejects_unknown_units_and_bodies(tmp_path):
         simulate_study(tmp_path, bodies={"a": (1, 0.1, 0.1)}, conditions=[("a", "b")])
 
 
-def test_paper_study_is_62_trials_fast_with_the_paper_priors(tmp_path):
-    start = time.perf_counter()
+def test_paper_study_is_62_trials_with_the_paper_priors(tmp_path):
+    # How long writing it takes is for benchmarks/processing.py, not for a unit test.
     manifest = paper_study(tmp_path / "paper", seed=1)
-    elapsed = time.perf_counter() - start
-    assert elapsed < 2.0
     doc = tomllib.loads(manifest.read_text())
     assert len(doc["trials"]) == 62
     assert len(list((tmp_path / "paper" / "data").glob("*.csv"))) == 62
