@@ -127,7 +127,7 @@ def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> x
         "tau_max": float(np.max(run.tau)),
         "acceptance": float(run.acceptance),
         "sampling_seconds": float(run.seconds),
-        "moves": run.settings.moves,
+        "moves": run.moves or run.settings.moves,
         "ess_min_target": float(run.settings.ess_min),
         "r_hat_max_target": float(run.settings.r_hat_max),
         "priors": inputs_json(

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -31,7 +32,21 @@ from inertiafit.priors import Prior
 HALF_PI = np.pi / 2
 
 
-def feasible_angles(first_moment, inertia, prior: Prior):
+class Box(Protocol):
+    """Prior bounds: a :class:`Prior`, or several bodies' bounds as arrays."""
+
+    @property
+    def lower(self) -> Mapping[str, Any]:
+        """Lower bounds of ``mass``, ``com_distance``, ``radius_of_gyration``."""
+        ...
+
+    @property
+    def upper(self) -> Mapping[str, Any]:
+        """Upper bounds, same keys."""
+        ...
+
+
+def feasible_angles(first_moment, inertia, prior: Box):
     """Intervals of ``psi`` that keep ``(m, x, rho)`` inside the prior box.
 
     Parameters
@@ -73,13 +88,13 @@ def feasible_angles(first_moment, inertia, prior: Prior):
     return lo1, hi1, lo2, hi2
 
 
-def feasible_measure(first_moment, inertia, prior: Prior):
+def feasible_measure(first_moment, inertia, prior: Box):
     """Length of ``Psi(a, b)`` in rad: the prior mass of the curve through ``(a, b)``, times a."""
     lo1, hi1, lo2, hi2 = feasible_angles(first_moment, inertia, prior)
     return np.maximum(hi1 - lo1, 0.0) + np.maximum(hi2 - lo2, 0.0)
 
 
-def draw_angles(first_moment, inertia, prior: Prior, rng: np.random.Generator):
+def draw_angles(first_moment, inertia, prior: Box, rng: np.random.Generator):
     """Draw ``psi`` uniformly from ``Psi(a, b)`` for each pair (arrays of one shape)."""
     lo1, hi1, lo2, hi2 = feasible_angles(first_moment, inertia, prior)
     len1 = np.maximum(hi1 - lo1, 0.0)

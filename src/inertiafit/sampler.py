@@ -52,8 +52,13 @@ class SamplerSettings:
     burn_factor : float
         Steps dropped at the start, in units of ``tau``.
     moves : str
-        ``"independent"`` (default: 70 % independence Metropolis-Hastings from a Student-t
-        around the Laplace approximation, 20 % DE, 10 % DE-snooker), ``"de"`` (80 % DE,
+        ``"auto"`` (default): ``"blocked"`` for a model of two or more bodies that
+        :func:`inertiafit.blocked.star_structure` decomposes (an attachment measured alone
+        and with each segment), else ``"independent"``.
+        ``"blocked"``: the two-block Gibbs sampler of :mod:`inertiafit.blocked` (chains are
+        independent, ``n_walkers`` of them; cost linear in the number of segments).
+        ``"independent"``: emcee with 70 % independence Metropolis-Hastings from a Student-t
+        around the Laplace approximation, 20 % DE, 10 % DE-snooker. ``"de"`` (80 % DE,
         20 % DE-snooker) or ``"stretch"`` (emcee's default move).
     progress : bool or None
         Progress line on stderr; ``None`` shows it only on a terminal.
@@ -66,7 +71,7 @@ class SamplerSettings:
     r_hat_max: float = 1.01
     tau_factor: float = 50.0
     burn_factor: float = 3.0
-    moves: str = "independent"
+    moves: str = "auto"
     progress: bool | None = None
     extra: dict = field(default_factory=dict)
 
@@ -93,6 +98,8 @@ class SamplerRun:
         Whether every criterion was met before ``max_steps``.
     seconds : float
         Wall time of the sampling.
+    moves : str
+        The sampler that ran (``"auto"`` resolved).
     """
 
     chain: np.ndarray
@@ -106,6 +113,7 @@ class SamplerRun:
     seconds: float
     settings: SamplerSettings
     diagnostics: dict[str, float] = field(default_factory=dict)
+    moves: str = ""
 
 
 def _least_squares_start(model: Model) -> np.ndarray:
@@ -307,6 +315,109 @@ def _progress(enabled: bool, steps: int, max_steps: int, tau: float, ess: float,
         sys.stderr.flush()
 
 
+def _checks(params: dict[str, np.ndarray]) -> tuple[float, float]:
+    """Smallest bulk ESS and largest R-hat over every reported quantity, in one pass each."""
+    from arviz_stats.base import array_stats
+
+    # (walkers, draws, bodies) per quantity -> (quantities * bodies, chains, draws)
+    stack = np.concatenate([np.moveaxis(v, -1, 0) for v in params.values()])
+    ess = array_stats.ess(stack, chain_axis=-2, draw_axis=-1, method="bulk")
+    rhat = array_stats.rhat(stack, chain_axis=-2, draw_axis=-1)
+    return float(np.min(ess)), float(np.max(rhat))
+
+
+def resolve_moves(model: Model, moves: str) -> str:
+    """The sampler ``moves`` stands for on this model (``"auto"`` decided, names checked)."""
+    from inertiafit.blocked import star_structure
+
+    if moves not in ("auto", "blocked", "independent", "de", "stretch"):
+        raise InputError(
+            f"sampler: unknown moves '{moves}' "
+            "(expected 'auto', 'blocked', 'independent', 'de' or 'stretch')"
+        )
+    if moves == "blocked" and star_structure(model) is None:
+        raise InputError(
+            "sampler: moves 'blocked' needs bodies mounted in one condition each beside shared "
+            "bodies that are also measured on their own; this model has none"
+        )
+    if moves == "auto":
+        several = len(model.bodies) >= 2
+        return "blocked" if several and star_structure(model) is not None else "independent"
+    return moves
+
+
+class _Chains:
+    """The two samplers behind one interface: advance, the chain so far, acceptance."""
+
+    def __init__(self, model: Model, moves: str, n_walkers: int, seed: int) -> None:
+        rng = np.random.default_rng(seed)
+        self.moves = moves
+        if moves == "blocked":
+            from inertiafit.blocked import BlockedGibbs, star_structure
+
+            star = star_structure(model)
+            assert star is not None
+            if star.shared:
+                shared = BlockedGibbs.shared_submodel(model, star)
+                mode, cov = _laplace(shared, rng)
+                df = _proposal_df(shared)
+            else:
+                mode, cov, df = np.zeros(0), np.zeros((0, 0)), 5.0
+            self.gibbs = BlockedGibbs(model, star, mode, cov, df)
+            self.random = np.random.default_rng([seed, 3])
+            self.state = self.gibbs.start(n_walkers, self.random)
+            self.steps: list[np.ndarray] = []
+            self.iteration = 0
+            return
+        import emcee
+
+        d = model.ndim
+        n_walkers = max(n_walkers, 2 * d + 2)
+        mode, cov = _laplace(model, rng)
+        self.emcee_state = _initial_walkers(model, n_walkers, mode, cov, rng)
+        self.sampler = emcee.EnsembleSampler(
+            n_walkers,
+            d,
+            model.log_prob,
+            moves=_moves(moves, mode, cov, _proposal_df(model)),
+            vectorize=True,
+        )
+        # emcee draws from a copy of numpy's global RandomState taken at construction: seed it.
+        self.sampler.random_state = np.random.RandomState(seed).get_state()
+
+    def run(self, steps: int) -> None:
+        if self.moves == "blocked":
+            block = np.empty((steps, len(self.state[1]), self.gibbs.model.ndim))
+            for i in range(steps):
+                self.state = self.gibbs.sweep(*self.state, self.random)
+                block[i] = self.gibbs.joint_coordinates(*self.state)
+            self.steps.append(block)
+            self.iteration += steps
+        else:
+            self.emcee_state = self.sampler.run_mcmc(self.emcee_state, steps, progress=False)
+
+    @property
+    def n_steps(self) -> int:
+        return self.iteration if self.moves == "blocked" else int(self.sampler.iteration)
+
+    def chain(self) -> np.ndarray:
+        """Every step so far, ``(steps, walkers, ndim)``."""
+        if self.moves == "blocked":
+            if len(self.steps) > 1:
+                self.steps = [np.concatenate(self.steps)]
+            return self.steps[0]
+        return self.sampler.get_chain()
+
+    def acceptance(self) -> dict[str, float]:
+        if self.moves == "blocked":
+            rates = self.gibbs.acceptance
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # nan for a block that never ran
+                mean = float(np.nanmean(list(rates.values())))
+            return {"acceptance": mean, **rates}
+        return {"acceptance": float(np.mean(self.sampler.acceptance_fraction))}
+
+
 def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = None) -> SamplerRun:
     """Sample the posterior of ``model`` until converged.
 
@@ -315,10 +426,10 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
     model : Model
         Bodies, priors and evidence.
     seed : int
-        Seeds the walkers' start, emcee's random state and the exact angle draws; the same
-        seed and inputs give the same draws.
+        Seeds the walkers' start, the sampler's random state and the exact angle draws; the
+        same seed and inputs give the same draws.
     settings : SamplerSettings, optional
-        Walkers, chunk size, step bound and convergence targets.
+        Walkers, chunk size, step bound, convergence targets and the sampler (``moves``).
 
     Returns
     -------
@@ -331,54 +442,37 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
         When ``max_steps`` is reached before every criterion is met.
     """
     import emcee
-    from arviz_stats import ess, rhat
 
     s = settings or SamplerSettings()
+    moves = resolve_moves(model, s.moves)
     d = model.ndim
-    n_walkers = max(s.n_walkers, 2 * d + 2)
-    rng = np.random.default_rng(seed)
-    mode, cov = _laplace(model, rng)
-    start = _initial_walkers(model, n_walkers, mode, cov, rng)
-    sampler = emcee.EnsembleSampler(
-        n_walkers,
-        d,
-        model.log_prob,
-        moves=_moves(s.moves, mode, cov, _proposal_df(model)),
-        vectorize=True,
-    )
-    # emcee draws from a copy of numpy's global RandomState taken at construction: seed it.
-    sampler.random_state = np.random.RandomState(seed).get_state()
+    chains = _Chains(model, moves, s.n_walkers, seed)
     show = sys.stderr.isatty() if s.progress is None else s.progress
     t0 = time.perf_counter()
-    state = start
     converged = False
     tau = np.full(d, np.nan)
     burn = 0
     params: dict[str, np.ndarray] = {}
     diag: dict[str, float] = {}
-    while sampler.iteration < s.max_steps:
+    while chains.n_steps < s.max_steps:
         # Chunks grow with the chain, so the diagnostics cost a bounded share of the run.
-        steps = min(max(s.chunk, sampler.iteration // 4), s.max_steps - sampler.iteration)
-        state = sampler.run_mcmc(state, steps, progress=False)
-        chain = sampler.get_chain()  # (steps, walkers, dim)
+        steps = min(max(s.chunk, chains.n_steps // 4), s.max_steps - chains.n_steps)
+        chains.run(steps)
+        chain = chains.chain()  # (steps, walkers, dim)
         tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
         tau_max = float(np.max(tau))
-        burn = min(math.ceil(s.burn_factor * tau_max), sampler.iteration // 2)
+        burn = min(math.ceil(s.burn_factor * tau_max), chains.n_steps // 2)
         kept = np.swapaxes(chain[burn:], 0, 1)  # (walkers, draws, dim)
-        long_enough = sampler.iteration > s.tau_factor * tau_max
-        if not long_enough and sampler.iteration < s.max_steps:
+        long_enough = chains.n_steps > s.tau_factor * tau_max
+        if not long_enough and chains.n_steps < s.max_steps:
             # ESS and R-hat of every quantity cost more than the steps: wait for 50 tau.
             diag = {"ess_bulk_min": math.nan, "r_hat_max": math.nan, "tau_max": tau_max}
-            _progress(show, sampler.iteration, s.max_steps, tau_max, math.nan, t0)
+            _progress(show, chains.n_steps, s.max_steps, tau_max, math.nan, t0)
             continue
         params = model.parameters(kept, np.random.default_rng([seed, 1]))
-        ess_min, rhat_max = np.inf, 0.0
-        for arr in params.values():
-            for k in range(arr.shape[-1]):
-                ess_min = min(ess_min, float(ess(arr[..., k], method="bulk")))
-                rhat_max = max(rhat_max, float(rhat(arr[..., k])))
+        ess_min, rhat_max = _checks(params)
         diag = {"ess_bulk_min": ess_min, "r_hat_max": rhat_max, "tau_max": tau_max}
-        _progress(show, sampler.iteration, s.max_steps, tau_max, ess_min, t0)
+        _progress(show, chains.n_steps, s.max_steps, tau_max, ess_min, t0)
         if long_enough and rhat_max <= s.r_hat_max and ess_min >= s.ess_min:
             converged = True
             break
@@ -393,17 +487,22 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
             ConvergenceWarning,
             stacklevel=2,
         )
-    log_prob = np.swapaxes(sampler.get_log_prob()[burn:], 0, 1)
+    if moves == "blocked":
+        log_prob = model.log_prob(kept.reshape(-1, d)).reshape(kept.shape[:2])
+    else:
+        log_prob = np.swapaxes(chains.sampler.get_log_prob()[burn:], 0, 1)
+    accept = chains.acceptance()
     return SamplerRun(
         chain=kept,
         log_prob=log_prob,
         parameters=params,
         tau=np.asarray(tau),
-        n_steps=int(sampler.iteration),
+        n_steps=chains.n_steps,
         burn=burn,
-        acceptance=float(np.mean(sampler.acceptance_fraction)),
+        acceptance=accept.pop("acceptance"),
         converged=converged,
         seconds=time.perf_counter() - t0,
         settings=s,
-        diagnostics=diag,
+        diagnostics={**diag, **accept},
+        moves=moves,
     )

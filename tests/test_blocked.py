@@ -1,0 +1,220 @@
+"""The blocked sampler for an attachment with K segments: which models it takes, and its draws
+against the exact star-model quadrature (and the joint sampler against the same yardstick)."""
+
+import numpy as np
+import pytest
+
+from inertiafit.blocked import BlockedGibbs, star_structure
+from inertiafit.errors import InputError
+from inertiafit.inference import fit
+from inertiafit.model import Condition, Model
+from inertiafit.observations import Observation
+from inertiafit.priors import Prior
+from inertiafit.reference import reference_posterior, star_reference
+from inertiafit.sampler import SamplerSettings, _laplace, _proposal_df, resolve_moves
+
+G = 9.81
+
+
+def segments_model(k, *, seed=0, n_trials=10, inflate=None):
+    """An attachment measured alone and with each of ``k`` segments: 10 inertia trials per
+    condition (Student-t, 9 d.o.f.) and a gravity moment with a 1 % SE. Prior boxes (+-50 %)
+    are centred up to 15 % off the truth. ``inflate`` widens the evidence of one condition
+    (a negative control)."""
+    rng = np.random.default_rng([seed, k])
+    truth = {"attachment": (2.85, 0.12, 0.24)}
+    for j in range(1, k + 1):
+        truth[f"seg{j:02d}"] = (rng.uniform(1, 4), rng.uniform(0.04, 0.1), rng.uniform(0.1, 0.3))
+    priors = {}
+    for name, (m, rho, x) in truth.items():
+        f = rng.uniform(0.85, 1.15, 3)
+        priors[name] = Prior.box(
+            name, mass=m * f[0], radius_of_gyration=rho * f[1], com_distance=x * f[2]
+        )
+    ab = {n: (m * x, m * (rho * rho + x * x)) for n, (m, rho, x) in truth.items()}
+    conditions = []
+    for names in [("attachment",)] + [("attachment", n) for n in list(truth)[1:]]:
+        a = sum(ab[n][0] for n in names)
+        b = sum(ab[n][1] for n in names)
+        obs_i = Observation.from_values(b * (1 + 0.03 * rng.standard_normal(n_trials)))
+        obs_g = Observation.from_mean_se(G * a * (1 + 0.01 * rng.standard_normal()), 0.01 * G * a)
+        if inflate == names[-1]:
+            obs_i = Observation(obs_i.center, 1.3 * obs_i.scale, obs_i.df, obs_i.n)
+        conditions.append(Condition(names, obs_i, obs_g))
+    return Model(priors, conditions, gravity=G)
+
+
+def agreement(post, ref):
+    """Largest |mean error| in reference SDs and largest relative SD error, over all bodies."""
+    worst_mean, worst_sd = 0.0, 0.0
+    for body, r in ref.items():
+        for q in r.values:
+            x = post.draws(body, q).ravel()
+            worst_mean = max(worst_mean, abs(x.mean() - r.mean(q)) / r.sd(q))
+            worst_sd = max(worst_sd, abs(x.std() / r.sd(q) - 1))
+    return worst_mean, worst_sd
+
+
+# ------------------------------------------------------------------------------- structure
+
+
+def obs(center, scale=0.01):
+    return Observation.from_mean_se(center, scale)
+
+
+def box(name):
+    return Prior.box(name, mass=2.0, com_distance=0.2, radius_of_gyration=0.1)
+
+
+def model_of(conditions):
+    bodies = sorted({b for names, *_ in conditions for b in names})
+    return Model(
+        {b: box(b) for b in bodies},
+        [Condition(tuple(names), i, g) for names, i, g in conditions],
+    )
+
+
+def test_attachment_with_segments_is_a_star():
+    m = model_of(
+        [
+            (("a",), obs(0.1), obs(4.0)),
+            (("a", "b"), obs(0.2), obs(8.0)),
+            (("a", "c"), obs(0.2), obs(8.0)),
+        ]
+    )
+    star = star_structure(m)
+    assert star.shared == (0,)
+    assert star.leaves == (1, 2)
+    assert star.leaf_conditions == (1, 2)
+    assert star.shared_conditions == (0,)
+    np.testing.assert_array_equal(star.weights, [[1.0], [1.0]])
+    assert resolve_moves(m, "auto") == "blocked"
+
+
+def test_nested_conditions_leave_only_the_outermost_body_a_leaf():
+    m = model_of(
+        [
+            (("a",), obs(0.1), obs(4.0)),
+            (("a", "b"), obs(0.2), obs(8.0)),
+            (("a", "b", "c"), obs(0.3), obs(12.0)),
+        ]
+    )
+    star = star_structure(m)
+    assert star.shared == (0, 1)
+    assert star.leaves == (2,)
+    np.testing.assert_array_equal(star.weights, [[1.0, 1.0]])
+
+
+def test_models_the_blocked_sampler_cannot_take():
+    # the attachment is never measured alone: nothing anchors the shared proposal
+    never_alone = model_of([(("a", "b"), obs(0.2), obs(8.0)), (("a", "c"), obs(0.2), obs(8.0))])
+    assert star_structure(never_alone) is None
+    # the segment's condition has no gravity moment: its total cannot be proposed from evidence
+    no_gravity = model_of([(("a",), obs(0.1), obs(4.0)), (("a", "b"), obs(0.2), None)])
+    assert star_structure(no_gravity) is None
+    for m in (never_alone, no_gravity):
+        assert resolve_moves(m, "auto") == "independent"
+        with pytest.raises(InputError, match="moves 'blocked' needs"):
+            resolve_moves(m, "blocked")
+    one_body = model_of([(("a",), obs(0.1), obs(4.0))])
+    assert resolve_moves(one_body, "auto") == "independent"
+    with pytest.raises(InputError, match="unknown moves 'gibbs'"):
+        resolve_moves(one_body, "gibbs")
+
+
+# -------------------------------------------------------------------------------- reference
+
+
+def test_star_reference_without_segments_is_the_single_body_quadrature():
+    m = segments_model(0)
+    cond = m.conditions[0]
+    star = star_reference(m, n_angle=40)["attachment"]
+    single = reference_posterior(m.priors["attachment"], cond.inertia, cond.gravity_moment)
+    for q in ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment"):
+        assert star.mean(q) == pytest.approx(single.mean(q), rel=2e-4)
+        assert star.sd(q) == pytest.approx(single.sd(q), rel=2e-3)
+
+
+def test_star_reference_rejects_models_without_one_measured_attachment():
+    m = model_of([(("a", "b"), obs(0.2), obs(8.0)), (("a", "c"), obs(0.2), obs(8.0))])
+    with pytest.raises(ValueError, match="one shared body"):
+        star_reference(m)
+
+
+# ---------------------------------------------------------------------------------- sampler
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("k", "seed"), [(1, 1), (3, 2), (20, 3)])
+def test_blocked_sampler_matches_the_exact_posterior(k, seed):
+    model = segments_model(k)
+    post = fit(model, seed=seed, settings=SamplerSettings(progress=False))
+    assert post.attrs["moves"] == "blocked"
+    assert post.converged
+    # ESS >= 1000 per quantity: Monte Carlo SE of a mean <= 0.032 SD, of an SD <= ~2.5 %;
+    # over 5 (k + 1) quantities the largest of them stays below 0.1 SD and 10 %.
+    assert post.summary()["ess_bulk"].min() >= 1000
+    worst_mean, worst_sd = agreement(post, star_reference(model, n_angle=24))
+    assert worst_mean < 0.1
+    assert worst_sd < 0.10
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k", [1, 2])
+def test_joint_sampler_gives_the_same_posterior_at_small_k(k):
+    # The joint emcee sampler (all bodies' coordinates at once) against the same yardstick:
+    # the blocked decomposition changes how the posterior is explored, not what it is.
+    model = segments_model(k)
+    post = fit(model, seed=4, settings=SamplerSettings(moves="independent", progress=False))
+    assert post.attrs["moves"] == "independent"
+    worst_mean, worst_sd = agreement(post, star_reference(model, n_angle=24))
+    assert worst_mean < 0.1
+    assert worst_sd < 0.10
+
+
+@pytest.mark.slow
+def test_negative_control_a_wrong_likelihood_fails_the_same_test():
+    # One segment's inertia evidence 30 % too wide; the yardstick is the right model's.
+    model = segments_model(3)
+    wrong = segments_model(3, inflate="seg02")
+    post = fit(wrong, seed=2, settings=SamplerSettings(progress=False))
+    worst_mean, worst_sd = agreement(post, star_reference(model))
+    assert worst_mean >= 0.1 or worst_sd >= 0.10
+
+
+def test_same_seed_same_draws():
+    model = segments_model(2)
+    s = SamplerSettings(progress=False, max_steps=300)
+    a = fit(model, seed=7, settings=s).draws("seg01", "mass")
+    b = fit(model, seed=7, settings=s).draws("seg01", "mass")
+    c = fit(model, seed=8, settings=s).draws("seg01", "mass")
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a[:, :50], c[:, :50])
+
+
+def far_tail_chains(model, joint_step: bool, sweeps: int = 60):
+    """Chains started with the attachment's inertia 8 SDs out; where are they after a while?"""
+    star = star_structure(model)
+    shared = BlockedGibbs.shared_submodel(model, star)
+    mode, cov = _laplace(shared, np.random.default_rng(0))
+    gibbs = BlockedGibbs(model, star, mode, cov, _proposal_df(shared))
+    if not joint_step:
+        gibbs._shared_step_leaves_fixed = lambda s, ta, tb, random: (s, ta, tb)
+    random = np.random.default_rng(1)
+    s_log, ta, tb = gibbs.start(32, random)
+    sd = np.sqrt(cov[1, 1])
+    s_log[:, 1] = mode[1] + 8 * sd
+    # leaf totals that fit the far-out attachment (as a chain that wandered there would hold)
+    ta, tb = gibbs.fit_leaves(s_log, ta, tb, random)
+    for _ in range(sweeps):
+        s_log, ta, tb = gibbs.sweep(s_log, ta, tb, random)
+    return np.abs(s_log[:, 1] - mode[1]) / sd
+
+
+def test_a_chain_in_a_far_tail_comes_back():
+    # Three trials per condition: Student-t evidence with 2 d.o.f., chains do visit far tails.
+    model = segments_model(2, n_trials=3)
+    assert np.all(far_tail_chains(model, joint_step=True) < 6)
+    # negative control: with only the two conditional updates, the attachment and the leaf
+    # totals hold each other in place (each segment's box ties its total to the attachment)
+    assert np.sum(far_tail_chains(model, joint_step=False) > 6) >= 2
