@@ -126,6 +126,11 @@ def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> x
         "tau": inputs_json([float(t) for t in run.tau]),
         "tau_max": float(np.max(run.tau)),
         "acceptance": float(run.acceptance),
+        **{  # the blocked sampler's rate per update (shared, leaves, joint)
+            key: float(value)
+            for key, value in run.diagnostics.items()
+            if key.startswith("acceptance_") and math.isfinite(value)
+        },
         "sampling_seconds": float(run.seconds),
         "moves": run.moves or run.settings.moves,
         "ess_min_target": float(run.settings.ess_min),
