@@ -1,4 +1,4 @@
-"""Command line: ``inertiafit fit | run | demo | report | priors``.
+"""Command line: ``inertiafit fit | run | run-many | demo | report | priors``.
 
 The command line only parses arguments and calls the library. Bad input ends with one line on
 stderr (``inertiafit: error: ...``) and exit status 2, never a traceback.
@@ -155,6 +155,60 @@ def build_parser() -> argparse.ArgumentParser:
         help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
     )
 
+    many = sub.add_parser(
+        "run-many",
+        help="run a batch of studies, on a Dask cluster or on this machine",
+        description="Run the whole pipeline of 'run' on every STUDY, each into its own folder "
+        "of --out named after its manifest, and write batch.csv (a row per study: manifest, "
+        "folder, ok or failed with the error, seconds, convergence) and batch-summary.csv "
+        "(every summary.csv stacked). With --scheduler the studies are tasks on that Dask "
+        "cluster (its workers must see the same files); otherwise they run on a local Dask "
+        "cluster of --workers processes, or one after another with --workers 1. A study that "
+        "fails is recorded and the others go on; the exit status is then 1.",
+    )
+    many.add_argument(
+        "studies", type=Path, nargs="+", metavar="STUDY", help="study manifests (TOML)"
+    )
+    many.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="batch folder, replaced whole; a subfolder per study",
+    )
+    many.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="address of a running Dask scheduler, e.g. tcp://host:8786 (default: this machine)",
+    )
+    many.add_argument(
+        "--workers",
+        type=_count,
+        metavar="N",
+        help="local worker processes (default: one per CPU, at most one per study; "
+        "1 runs the studies one after another in this process)",
+    )
+    many.add_argument(
+        "--connect-timeout",
+        type=_number,
+        default=10.0,
+        metavar="S",
+        help="seconds to wait for --scheduler (default 10)",
+    )
+    many.add_argument(
+        "--seed", type=_count, default=0, help="seed of every study's sampler (default 0)"
+    )
+    many.add_argument(
+        "--hdi-prob",
+        type=_number,
+        default=0.95,
+        help="probability of the highest-density intervals (default 0.95)",
+    )
+    many.add_argument(
+        "--formats",
+        default="pdf,png",
+        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+    )
+
     demo = sub.add_parser(
         "demo",
         help="simulate the paper's experiment and run it end to end",
@@ -221,6 +275,39 @@ def _run(args) -> int:
     return 0
 
 
+def _run_many(args) -> int:
+    from inertiafit.batch import run_many
+    from inertiafit.rendering import check_formats
+
+    if not args.connect_timeout > 0:
+        raise InputError(
+            f"--connect-timeout: expected a positive number of seconds, got {args.connect_timeout}"
+        )
+    batch = run_many(
+        args.studies,
+        args.out,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        seed=args.seed,
+        hdi_prob=args.hdi_prob,
+        formats=check_formats(args.formats.split(",")),
+        connect_timeout=args.connect_timeout,
+    )
+    n, failed = len(batch.table), batch.failed
+    print(
+        f"{n - len(failed)} of {n} studies done in {batch.seconds:.1f} s {batch.where}; "
+        f"{batch.out / 'batch.csv'}"
+    )
+    if failed:
+        print(
+            f"inertiafit: error: {len(failed)} of {n} studies failed: {', '.join(failed)} "
+            f"(errors in {batch.out / 'batch.csv'})",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
 def _report(args) -> int:
     from inertiafit.rendering import redraw
 
@@ -247,7 +334,14 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``inertiafit`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    handlers = {"fit": _fit, "run": _run, "demo": _demo, "report": _report, "priors": _priors}
+    handlers = {
+        "fit": _fit,
+        "run": _run,
+        "run-many": _run_many,
+        "demo": _demo,
+        "report": _report,
+        "priors": _priors,
+    }
     try:
         if hasattr(args, "hdi_prob") and not 0 < args.hdi_prob < 1:
             raise InputError(f"--hdi-prob: expected a probability in (0, 1), got {args.hdi_prob}")
