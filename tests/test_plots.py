@@ -380,6 +380,18 @@ def test_save_figure_writes_vector_and_raster(posterior, tmp_path):
         plots.save_figure(fig, tmp_path / "x", formats=("jpg",))
 
 
+def test_save_figure_restores_the_layout_engine(posterior, tmp_path):
+    # the first format's layout serves the others; the figure keeps its engine afterwards
+    fig = plots.plot_rank(posterior, "attachment")
+    engine = fig.get_layout_engine()
+    assert engine is not None
+    plots.save_figure(fig, tmp_path / "rank", formats=("pdf", "png"), dpi=50)
+    assert fig.get_layout_engine() is engine
+    with pytest.raises(ValueError, match="formats"):
+        plots.save_figure(fig, tmp_path / "x", formats=("jpg",))
+    assert fig.get_layout_engine() is engine
+
+
 def test_draws_into_a_given_figure(posterior):
     from matplotlib.figure import Figure
 

@@ -163,11 +163,21 @@ def save_figure(
     # No dates in the files: the same figure gives the same bytes.
     metadata = {"pdf": {"CreationDate": None}, "svg": {"Date": None}, "png": {"Software": None}}
     paths = []
+    # A layout engine (constrained layout) places the axes again at every save, the costliest
+    # part of drawing small figures; the first format's layout serves the others too (the
+    # backends' text metrics differ by a fraction of a point), then the engine is restored.
+    engine = fig.get_layout_engine()
     with style_context():
-        for fmt in formats:
-            path = Path(f"{stem}.{fmt}")
-            fig.savefig(path, format=fmt, dpi=dpi, metadata=metadata[fmt])
-            paths.append(path)
+        try:
+            for fmt in formats:
+                path = Path(f"{stem}.{fmt}")
+                fig.savefig(path, format=fmt, dpi=dpi, metadata=metadata[fmt])
+                paths.append(path)
+                if engine is not None and fig.get_layout_engine() is engine:
+                    fig.set_layout_engine("none")
+        finally:
+            if engine is not None and fig.get_layout_engine() is not engine:
+                fig.set_layout_engine(engine)
     return paths
 
 
