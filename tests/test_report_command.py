@@ -101,6 +101,15 @@ def test_report_redraws_without_sampling(study_out, capsys):
     assert "redrew" in capsys.readouterr().out
 
 
+def test_report_without_png_files_still_embeds_every_figure(study_out):
+    # figures are drawn and let go one at a time; report.html gets a PNG of each all the same
+    assert main(["report", str(study_out), "--formats", "pdf"]) == 0
+    html = (study_out / "report.html").read_text()
+    figures = sorted(p.stem for p in study_out.glob("*.pdf"))
+    assert len(figures) == 12
+    assert html.count("data:image/png;base64,") == len(figures)
+
+
 def test_report_on_a_fit_folder(tmp_path):
     out = tmp_path / "fit"
     assert (

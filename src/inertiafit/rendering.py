@@ -7,8 +7,10 @@ draws them again — with other formats or another HDI probability — without s
 
 from __future__ import annotations
 
+import functools
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -40,29 +42,45 @@ def _save(fig, folder: Path, stem: str, formats: tuple[str, ...]) -> None:
     save_figure(fig, folder / stem, formats, dpi=150)
 
 
-def study_figures(result: StudyResult) -> dict[str, Any]:
-    """The study's figures by file stem (Matplotlib Figures, none shown)."""
+def figure_makers(result: StudyResult) -> dict[str, Callable[[], Any]]:
+    """The study's figures by file stem, each as a function that draws it.
+
+    Drawing one figure at a time, saving and dropping it, keeps one figure in memory rather
+    than all of them.
+    """
     from inertiafit import plots
 
     post = result.posterior
-    figures: dict[str, Any] = {}
+    makers: dict[str, Callable[[], Any]] = {}
     for body in post.bodies:
         truths = result.ideals.get(body) or None
         stem = "corner" if result.kind == "fit" else f"corner-{body}"
-        figures[stem] = post.corner(body, truths=truths)
-        figures[f"identification-{body}"] = plots.plot_identification_curve(
-            post, body, baseline=(result.baselines or {}).get(body)
+        makers[stem] = functools.partial(post.corner, body, truths=truths)
+        makers[f"identification-{body}"] = functools.partial(
+            plots.plot_identification_curve,
+            post,
+            body,
+            baseline=(result.baselines or {}).get(body),
         )
-        figures[f"trace-{body}"] = plots.plot_trace(post, body)
-        figures[f"rank-{body}"] = plots.plot_rank(post, body)
+        makers[f"trace-{body}"] = functools.partial(plots.plot_trace, post, body)
+        makers[f"rank-{body}"] = functools.partial(plots.plot_rank, post, body)
     if len(post.bodies) > 1:
-        figures["corner-joint"] = plots.plot_joint_corner(post, truths=result.ideals or None)
+        makers["corner-joint"] = functools.partial(
+            plots.plot_joint_corner, post, truths=result.ideals or None
+        )
     for cond, traces in result.traces.items():
-        figures[f"fast-trials-{cond}"] = plots.plot_fast_trials(traces, title=cond)
+        makers[f"fast-trials-{cond}"] = functools.partial(
+            plots.plot_fast_trials, traces, title=cond
+        )
     fast = result.trials[result.trials["kind"] == "fast"]
     if len(fast):
-        figures["inertia-by-speed"] = plots.plot_inertia_by_speed(fast)
-    return figures
+        makers["inertia-by-speed"] = functools.partial(plots.plot_inertia_by_speed, fast)
+    return makers
+
+
+def study_figures(result: StudyResult) -> dict[str, Any]:
+    """The study's figures by file stem (Matplotlib Figures, none shown)."""
+    return {stem: make() for stem, make in figure_makers(result).items()}
 
 
 def write_tables(folder: Path, result: StudyResult, hdi_prob: float) -> None:
@@ -123,14 +141,18 @@ def write_study_outputs(
     write_tables(folder, result, hdi_prob)
     if save_posterior:
         result.posterior.save(folder / "posterior.nc")
-    figures = study_figures(result)
-    for stem, fig in figures.items():
+    from inertiafit.report import figure_png
+
+    # One figure at a time: drawn, saved, its PNG kept for report.html, then let go.
+    embedded: dict[str, bytes] = {}
+    for stem, make in figure_makers(result).items():
+        fig = make()
         _save(fig, folder, stem, formats)
-    # Embed the PNGs just written rather than drawing every figure once more.
-    embedded = {
-        stem: (folder / f"{stem}.png").read_bytes() if "png" in formats else fig
-        for stem, fig in figures.items()
-    }
+        # Embed the PNG just written rather than drawing the figure once more.
+        embedded[stem] = (
+            (folder / f"{stem}.png").read_bytes() if "png" in formats else figure_png(fig)
+        )
+        del fig
     write_html(folder / "report.html", result, embedded, hdi_prob)
 
 

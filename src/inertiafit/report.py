@@ -23,11 +23,16 @@ figure { margin: 1em 0; } img { max-width: 100%; border: 1px solid #eee; }
 """
 
 
-def figure_png_base64(fig, dpi: int = 110) -> str:
-    """PNG of a Matplotlib figure as base64 text, for embedding."""
+def figure_png(fig, dpi: int = 110) -> bytes:
+    """PNG of a Matplotlib figure, for embedding."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
+    return buf.getvalue()
+
+
+def figure_png_base64(fig, dpi: int = 110) -> str:
+    """PNG of a Matplotlib figure as base64 text, for embedding."""
+    return base64.b64encode(figure_png(fig, dpi)).decode("ascii")
 
 
 def table_html(frame: pd.DataFrame, digits: int = 4) -> str:
