@@ -96,3 +96,23 @@ def test_frame_mean_column_can_be_analysed():
     )
     table = speed_effect(frame, value="inertia_frame_mean")
     assert table.query("row == 'speed'")["mean"].tolist() == pytest.approx([0.205, 0.21])
+
+
+@pytest.mark.parametrize("sizes", [(10, 10, 10), (4, 7, 5, 9), (2, 3)])
+def test_tukey_pairs_are_scipys_tukey_hsd_numbers(sizes):
+    # The pairs-only computation must give scipy.stats.tukey_hsd's numbers exactly.
+    from scipy import stats
+
+    from inertiafit.processing.speed import tukey_pairs
+
+    rng = np.random.default_rng(len(sizes))
+    samples = [rng.normal(0.2 + 0.01 * i, 0.02, n) for i, n in enumerate(sizes)]
+    for confidence in (0.95, 0.9):
+        ref = stats.tukey_hsd(*samples)
+        ci = ref.confidence_interval(confidence_level=confidence)
+        pairs, diffs, pvals, radii = tukey_pairs(samples, confidence)
+        assert len(pairs) == len(sizes) * (len(sizes) - 1) // 2
+        for (i, j), d, p, r in zip(pairs, diffs, pvals, radii, strict=True):
+            assert d == ref.statistic[i, j]
+            assert p == ref.pvalue[i, j]
+            assert (d - r, d + r) == (ci.low[i, j], ci.high[i, j])

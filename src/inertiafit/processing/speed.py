@@ -21,6 +21,7 @@ than two trials, ``F``, ``p`` and the pairs are not defined: NaN, and no pair ro
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -63,6 +64,55 @@ def _groups(
         str(c): {float(s): np.asarray(v, dtype=float) for s, v in sorted(by_speed.items())}
         for c, by_speed in trials.items()
     }
+
+
+def tukey_pairs(
+    samples: Sequence[np.ndarray], confidence: float = 0.95
+) -> tuple[list[tuple[int, int]], list[float], list[float], list[float]]:
+    """Tukey's HSD for every pair ``i < j`` of groups, as scipy computes it, for the pairs only.
+
+    The numbers are those of :func:`scipy.stats.tukey_hsd` (equal variances), which
+    integrates the studentized range for all ``k x k`` entries (diagonal and both triangles)
+    and finds its quantile by root-finding on nested integrals; here the tail probability is
+    integrated once per pair and the quantile once per ``(confidence, k, df)``
+    (:func:`_studentized_range_quantile`). Same formulas, same floating-point operations,
+    the same numbers.
+
+    Returns
+    -------
+    pairs, mean_differences, p_values, ci_radii : lists
+        Per pair ``(i, j)``: ``mean(i) - mean(j)``, its p-value, and the half-width of its
+        ``confidence`` interval (symmetric about the difference).
+    """
+    k = len(samples)
+    means = np.asarray([np.mean(x) for x in samples])
+    sizes = np.asarray([x.size for x in samples])
+    variances = np.asarray([np.var(x, ddof=1) for x in samples])
+    mse = np.sum(variances * (sizes - 1)) / (np.sum(sizes) - k)
+    if np.unique(sizes).size == 1:
+        normalize = np.full((k, k), 2 / sizes[0])
+    else:
+        normalize = 1 / sizes + 1 / sizes[None].T
+    stand_err = np.sqrt(normalize * mse / 2)
+    df = int(np.sum(sizes) - k)
+    differences = means[None].T - means
+    pairs = list(itertools.combinations(range(k), 2))
+    rows, cols = (np.array(v, dtype=int) for v in zip(*pairs, strict=True))
+    t_stat = np.abs(differences[rows, cols]) / stand_err[rows, cols]
+    p_values = np.atleast_1d(stats.studentized_range.sf(t_stat, k, df))
+    radii = _studentized_range_quantile(confidence, k, df) * stand_err[rows, cols]
+    return (
+        pairs,
+        [float(v) for v in differences[rows, cols]],
+        [float(v) for v in p_values],
+        [float(v) for v in radii],
+    )
+
+
+@functools.lru_cache(maxsize=32)
+def _studentized_range_quantile(confidence: float, k: int, df: int) -> float:
+    # ~0.13 s of root-finding on a double integral; a study's conditions usually share k, df.
+    return float(stats.studentized_range.ppf(confidence, k, df))
 
 
 def speed_effect(
@@ -124,9 +174,7 @@ def speed_effect(
             )
         if not testable:
             continue
-        tukey = stats.tukey_hsd(*samples)
-        ci = tukey.confidence_interval(confidence_level=confidence)
-        for i, j in itertools.combinations(range(len(speeds)), 2):
+        for (i, j), diff, p_pair, radius in zip(*tukey_pairs(samples, confidence), strict=True):
             rows.append(
                 {
                     "condition": condition,
@@ -135,10 +183,10 @@ def speed_effect(
                     "speed_b": speeds[j],
                     "F": f_stat,
                     "p": p_value,
-                    "mean_difference": float(tukey.statistic[i, j]),
-                    "p_tukey": float(tukey.pvalue[i, j]),
-                    "ci_lower": float(ci.low[i, j]),
-                    "ci_upper": float(ci.high[i, j]),
+                    "mean_difference": diff,
+                    "p_tukey": p_pair,
+                    "ci_lower": diff - radius,
+                    "ci_upper": diff + radius,
                 }
             )
     table = pd.DataFrame(rows, columns=list(COLUMNS))
