@@ -291,6 +291,32 @@ def test_manual_window_overrides_detection_and_short_windows_are_flagged():
     assert find_window(trial).start == pytest.approx(0.22)
 
 
+def test_window_on_arrays_is_the_window_of_the_filtered_trial():
+    from inertiafit.processing.window import find_window_arrays
+
+    trial = trial_of("attachment", speed_deg_s=270, rng=5, source="a.csv")
+    filtered = lowpass(trial)
+    arrays = (filtered["time"].values, filtered["velocity"].values)
+    accel = filtered["acceleration"].values
+    assert find_window_arrays(*arrays, accel, speed_deg_s=270) == find_window(trial)
+    with pytest.warns(TrialWarning, match=r"a\.csv: short window"):
+        find_window_arrays(*arrays, accel, source="a.csv", window=(0.25, 0.26))
+
+
+def test_lowpass_keeps_every_variable_coordinate_and_attribute():
+    trial = trial_of("attachment", rng=6, source="k.csv")
+    trial["extra"] = ("time", np.arange(trial.sizes["time"], dtype=float), {"units": "1"})
+    out = lowpass(trial, cutoff=15.0)
+    assert list(out.data_vars) == [*trial.data_vars, "acceleration"]
+    assert out["extra"].identical(trial["extra"])
+    assert out["torque"].attrs == trial["torque"].attrs
+    assert out["time"].identical(trial["time"])
+    assert out.attrs == {**trial.attrs, "filter_cutoff": 15.0, "filter_order": 2}
+    rate = 1 / np.median(np.diff(trial["time"].values))
+    expected = lowpass_array(trial["velocity"].values, rate, cutoff=15.0)
+    np.testing.assert_array_equal(out["velocity"].values, expected)
+
+
 @pytest.mark.parametrize(
     ("window", "message"),
     [

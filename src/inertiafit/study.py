@@ -105,14 +105,11 @@ def _combine_gravity(fits: list, where: str):
     )
 
 
-def _trace(trial, window, speed: float, *, cutoff: float, order: int) -> dict:
-    """The moving part of a fast trial, velocity filtered as for the estimate, for plotting."""
-    from inertiafit.processing import lowpass_array
+def _trace(t, v, a, window, speed: float) -> dict:
+    """The moving part of a fast trial for plotting: its filtered velocity and acceleration.
 
-    t = trial["time"].to_numpy()
-    rate = float(trial.attrs["sampling_rate"])
-    v = lowpass_array(trial["velocity"].to_numpy(), rate, cutoff=cutoff, order=order)
-    a = np.gradient(v, t)
+    ``v`` and ``a`` are the ones the inertia was estimated from (the same zero-lag filter).
+    """
     moving = np.flatnonzero(np.abs(v) > 0.02 * np.max(np.abs(v)))
     lo, hi = (moving[0], moving[-1] + 1) if len(moving) else (0, len(t))
     step = max(1, (hi - lo) // 600)
@@ -155,7 +152,8 @@ def process_study(
         On any unreadable trial, unusable window, negative inertia, or sampling rates that
         differ between trials; the message names the file.
     """
-    from inertiafit.processing import estimate_inertia, fit_gravity
+    from inertiafit.processing import fit_gravity
+    from inertiafit.processing.inertia import _estimate
 
     if not isinstance(study, Study):
         study = load_study(study)
@@ -194,7 +192,8 @@ def process_study(
             continue
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", TrialWarning)
-            est = estimate_inertia(
+            # estimate_inertia, also giving the filtered velocity and acceleration it used
+            est, velocity, alpha = _estimate(
                 ds,
                 gravity[spec.condition],
                 window=spec.window,
@@ -206,11 +205,11 @@ def process_study(
         rows[spec.index] = _row(study, spec, inertia=est)
         traces.setdefault(spec.condition, []).append(
             _trace(
-                ds,
+                ds["time"].values,
+                velocity,
+                alpha,
                 (est.window_start, est.window_end),
                 float(spec.speed or 0.0),
-                cutoff=cutoff,
-                order=order,
             )
         )
     trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS)

@@ -28,9 +28,15 @@ import xarray as xr
 from numpy.typing import NDArray
 
 from inertiafit.errors import InputError, TrialWarning
-from inertiafit.processing.filtering import CUTOFF, ORDER, lowpass, sampling_rate, source_of
+from inertiafit.processing.filtering import (
+    CUTOFF,
+    ORDER,
+    lowpass_arrays,
+    sampling_rate,
+    source_of,
+)
 from inertiafit.processing.gravity import GravityFit, integrated_autocorrelation_time
-from inertiafit.processing.window import find_window
+from inertiafit.processing.window import LEVEL, MIN_SPEED_CHANGE, TOLERANCE, _window
 
 #: Identical samples at a channel's largest magnitude that count as saturation (clipping).
 SATURATION_RUN = 5
@@ -140,29 +146,60 @@ def estimate_inertia(
     TrialWarning
         For each flag: short window, slightly negative inertia, saturated torque or velocity.
     """
+    return _estimate(
+        trial,
+        gravity,
+        window=window,
+        speed_deg_s=speed_deg_s,
+        torque_sign=torque_sign,
+        cutoff=cutoff,
+        order=order,
+    )[0]
+
+
+def _estimate(
+    trial: xr.Dataset,
+    gravity: GravityFit,
+    *,
+    window: Sequence[float] | None = None,
+    speed_deg_s: float | None = None,
+    torque_sign: int = 1,
+    cutoff: float = CUTOFF,
+    order: int = ORDER,
+) -> tuple[InertiaEstimate, NDArray, NDArray]:
+    """:func:`estimate_inertia`, and the filtered velocity and acceleration it used.
+
+    Works on the trial's numpy arrays: xarray's copies and assignments cost more than the
+    filtering itself.
+    """
     source = source_of(trial)
     if torque_sign not in (1, -1):
         raise InputError(f"{source}: torque_sign: expected +1 or -1, got {torque_sign!r}")
-    sampling_rate(trial)
+    rate = sampling_rate(trial)
+    time = trial["time"].values
     raw_torque = torque_sign * trial["torque"].values
+    raw_velocity = trial["velocity"].values
     # Subtract the gravity model before filtering: by linearity the same as filtering both,
     # and the model then passes through exactly the filter the torque does.
-    net = trial.copy()
-    net["torque"] = trial["torque"].copy(data=raw_torque - gravity.torque(trial["angle"].values))
-    filtered = lowpass(net, cutoff=cutoff, order=order)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", TrialWarning)
-        win = find_window(
-            filtered.assign_attrs(source=source),
-            window=window if window is not None else trial.attrs.get("window"),
-            speed_deg_s=speed_deg_s if speed_deg_s is not None else trial.attrs.get("speed"),
-        )
-    for w in caught:
-        if not issubclass(w.category, TrialWarning):
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    net = raw_torque - gravity.torque(trial["angle"].values)
+    torque_f, velocity_f, alpha_f = lowpass_arrays(
+        time, net, raw_velocity, rate, cutoff=cutoff, order=order, source=source
+    )
+    # The window's flags are warned below with the others.
+    win = _window(
+        time,
+        velocity_f,
+        alpha_f,
+        source=source,
+        window=window if window is not None else trial.attrs.get("window"),
+        speed_deg_s=speed_deg_s if speed_deg_s is not None else trial.attrs.get("speed"),
+        level=LEVEL,
+        tolerance=TOLERANCE,
+        min_speed_change=MIN_SPEED_CHANGE,
+    )
     sl = slice(win.start_index, win.stop_index)
-    y = filtered["torque"].values[sl]
-    alpha = filtered["acceleration"].values[sl]
+    y = torque_f[sl]
+    alpha = alpha_f[sl]
 
     sxx = float(alpha @ alpha)
     value = float(alpha @ y) / sxx
@@ -188,15 +225,15 @@ def estimate_inertia(
             f"saturation: torque stays at {raw_torque[np.argmax(np.abs(raw_torque))]:.4g} N m "
             f"for {clipped} samples (clipped?)"
         )
-    clipped = saturated_run(trial["velocity"].values[sl])
+    clipped = saturated_run(raw_velocity[sl])
     if clipped:
         flags.append(
             f"saturation: velocity stays at its largest value for {clipped} samples inside "
             "the acceleration window (clipped?)"
         )
     for flag in flags:
-        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=2)
-    return InertiaEstimate(
+        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=3)
+    estimate = InertiaEstimate(
         inertia=value,
         inertia_se=se,
         inertia_frame_mean=frame_mean,
@@ -207,3 +244,4 @@ def estimate_inertia(
         flags=tuple(flags),
         source=source,
     )
+    return estimate, velocity_f, alpha_f

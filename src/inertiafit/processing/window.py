@@ -146,20 +146,81 @@ def find_window(
     """
     source = source_of(trial)
     filtered = trial if "acceleration" in trial else lowpass(trial, cutoff=cutoff, order=order)
-    t = np.asarray(filtered["time"].values, dtype=np.float64)
-    alpha = filtered["acceleration"].values
     if window is None and "window" in trial.attrs:
         window = tuple(np.ravel(trial.attrs["window"]).tolist())
+    found = _window(
+        filtered["time"].values,
+        filtered["velocity"].values,
+        filtered["acceleration"].values,
+        source=source,
+        window=window,
+        speed_deg_s=speed_deg_s if speed_deg_s is not None else trial.attrs.get("speed"),
+        level=level,
+        tolerance=tolerance,
+        min_speed_change=min_speed_change,
+    )
+    for flag in found.flags:
+        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=2)
+    return found
+
+
+def find_window_arrays(
+    time: NDArray,
+    velocity: NDArray,
+    acceleration: NDArray,
+    *,
+    source: str = "<trial>",
+    window: Sequence[float] | None = None,
+    speed_deg_s: float | None = None,
+    level: float = LEVEL,
+    tolerance: float = TOLERANCE,
+    min_speed_change: float = MIN_SPEED_CHANGE,
+) -> AccelerationWindow:
+    """:func:`find_window` on arrays: filtered velocity (rad/s) and acceleration (rad/s^2).
+
+    ``window`` and ``speed_deg_s`` are used as given (no trial attrs to fall back on);
+    ``source`` names the file in messages. Raises and warns as :func:`find_window`.
+    """
+    found = _window(
+        time,
+        velocity,
+        acceleration,
+        source=source,
+        window=window,
+        speed_deg_s=speed_deg_s,
+        level=level,
+        tolerance=tolerance,
+        min_speed_change=min_speed_change,
+    )
+    for flag in found.flags:
+        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=2)
+    return found
+
+
+def _window(
+    time: NDArray,
+    velocity: NDArray,
+    acceleration: NDArray,
+    *,
+    source: str,
+    window: Sequence[float] | None,
+    speed_deg_s: float | None,
+    level: float,
+    tolerance: float,
+    min_speed_change: float,
+) -> AccelerationWindow:
+    t = np.asarray(time, dtype=np.float64)
+    alpha = np.asarray(acceleration)
     if window is not None:
         start, stop = _manual(t, window, source)
         manual = True
     else:
         start, stop = _detect(
             t,
-            filtered["velocity"].values,
+            np.asarray(velocity),
             alpha,
             source=source,
-            speed_deg_s=speed_deg_s if speed_deg_s is not None else trial.attrs.get("speed"),
+            speed_deg_s=speed_deg_s,
             level=level,
             tolerance=tolerance,
             min_speed_change=min_speed_change,
@@ -173,7 +234,6 @@ def find_window(
             f"short window: {n} samples over {duration * 1e3:.3g} ms "
             f"(< {MIN_SAMPLES} samples or < {MIN_DURATION * 1e3:g} ms)"
         )
-        warnings.warn(f"{source}: {flags[-1]}", TrialWarning, stacklevel=2)
     return AccelerationWindow(
         start=float(t[start]),
         end=float(t[stop - 1]),
