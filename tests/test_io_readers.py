@@ -91,6 +91,17 @@ def test_csv_missing_column_lists_the_files_columns(tmp_path):
         read_trial(path)
 
 
+def test_csv_column_named_twice_is_an_input_error(tmp_path):
+    # "torque" and "torque " are one channel once the header is stripped
+    text = generic_csv(header="time,angle,velocity,torque").replace("\n", ",0\n")
+    text = text.replace("torque,0", "torque,torque ", 1)
+    path = write(tmp_path, "dup.csv", text)
+    with pytest.raises(
+        InputError, match=r"dup\.csv: column 'torque' appears 2 times in the header"
+    ):
+        read_trial(path)
+
+
 def test_csv_non_numeric_cell_names_line_and_column(tmp_path):
     text = generic_csv().replace("\n0.0500,15.0,60,12.50\n", "\n0.0500,15.0,60,12.5O\n")
     path = write(tmp_path, "bad.csv", text)

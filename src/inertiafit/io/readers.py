@@ -339,8 +339,7 @@ def _load_table(
         raise InputError(f"{path}: cannot be read as delimited text: {detail}") from None
     except UnicodeDecodeError as err:
         raise InputError(f"{path}: not a UTF-8 text file ({err.reason})") from None
-    frame.columns = [str(c).strip() for c in frame.columns]
-    present = list(frame.columns)
+    present = [str(c).strip() for c in frame.columns]
     for key, name in wanted.items():
         if name not in present:
             listed = ", ".join(present)
@@ -348,26 +347,48 @@ def _load_table(
                 f"{path}: column {name!r} not found (columns are: {listed}); "
                 f"set {hint}.{key} in the manifest"
             )
-    frame = frame[list(dict.fromkeys(wanted.values()))]
+        if present.count(name) > 1:
+            raise InputError(
+                f"{path}: column {name!r} appears {present.count(name)} times in the header; "
+                "each channel needs one column"
+            )
+    # Column by column on numpy arrays: selecting, masking and converting a DataFrame costs
+    # half as much again as parsing the file.
+    columns = {name: frame.iloc[:, present.index(name)] for name in wanted.values()}
+    numeric = {
+        name: not pd.api.types.is_bool_dtype(series) and pd.api.types.is_numeric_dtype(series)
+        for name, series in columns.items()
+    }
+    values = {
+        name: series.to_numpy(dtype=np.float64, na_value=np.nan)
+        for name, series in columns.items()
+        if numeric[name]
+    }
     # Trailing blank lines come back as all-empty rows; only those are harmless.
-    filled = frame.notna().any(axis=1).to_numpy()
-    n = int(np.flatnonzero(filled)[-1]) + 1 if filled.any() else 0
-    frame = frame.iloc[:n]
+    empty = np.logical_and.reduce(
+        [
+            np.isnan(values[name]) if numeric[name] else series.isna().to_numpy()
+            for name, series in columns.items()
+        ]
+    )
+    filled = np.flatnonzero(~empty)
+    n = int(filled[-1]) + 1 if filled.size else 0
     lines = np.arange(n, dtype=np.int64) + 2
     out = {}
     for key, name in wanted.items():
-        series = frame[name]
-        if pd.api.types.is_bool_dtype(series) or not pd.api.types.is_numeric_dtype(series):
-            numeric = pd.to_numeric(series, errors="coerce")
-            text = series.astype("string").str.strip()
-            bad = (numeric.isna() & text.notna() & (text != "")).to_numpy()
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise InputError(
-                    f"{path}: line {lines[i]}, column {name!r}: {text.iloc[i]!r} is not a number"
-                )
-            series = numeric
-        out[key] = series.to_numpy(dtype=np.float64, na_value=np.nan)
+        if numeric[name]:
+            out[key] = values[name][:n]
+            continue
+        series = columns[name].iloc[:n]
+        converted = pd.to_numeric(series, errors="coerce")
+        text = series.astype("string").str.strip()
+        bad = (converted.isna() & text.notna() & (text != "")).to_numpy()
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputError(
+                f"{path}: line {lines[i]}, column {name!r}: {text.iloc[i]!r} is not a number"
+            )
+        out[key] = converted.to_numpy(dtype=np.float64, na_value=np.nan)
     return out, lines
 
 
