@@ -1,5 +1,7 @@
 """`inertiafit run-many`: a batch of studies, serially or on a Dask cluster."""
 
+import contextlib
+import os
 import socket
 import subprocess
 import sys
@@ -69,7 +71,15 @@ def serial(studies, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def on_cluster(studies, tmp_path_factory):
-    return _batch(studies, tmp_path_factory.mktemp("cluster") / "out", workers=2)
+    environ = dict(os.environ)
+    with contextlib.ExitStack() as stack:
+        # Dask's default HTTP port taken (another cluster): no warning (warnings are errors)
+        busy = stack.enter_context(socket.socket())
+        with contextlib.suppress(OSError):  # already taken by someone else: as good
+            busy.bind(("0.0.0.0", 8787))
+            busy.listen()
+        result = _batch(studies, tmp_path_factory.mktemp("cluster") / "out", workers=2)
+    return (*result, environ, dict(os.environ))
 
 
 @pytest.mark.slow
@@ -165,7 +175,8 @@ def test_a_study_folder_is_what_run_writes(serial, studies, tmp_path):
 
 @pytest.mark.slow
 def test_local_cluster_of_two_workers_gives_the_same_numbers_as_serial(serial, on_cluster):
-    (ser, _), (clu, lines) = serial, on_cluster
+    (ser, _), (clu, lines, environ_before, environ_after) = serial, on_cluster
+    assert environ_after == environ_before  # Dask's nannies export OMP_NUM_THREADS=1 etc.
     assert clu.where == "on a local Dask cluster of 2 worker processes"
     assert lines[0] == "starting a local Dask cluster of 2 workers"
     assert lines[1].startswith("running 3 studies on a local Dask cluster of 2 worker processes")

@@ -246,6 +246,14 @@ class _Serial:
         """Nothing to close."""
 
 
+def _restore_environ(saved: dict[str, str]) -> None:
+    for key in set(os.environ) - set(saved):
+        del os.environ[key]
+    for key, value in saved.items():
+        if os.environ.get(key) != value:
+            os.environ[key] = value
+
+
 class _Dask:
     """One task per study on a Dask cluster: a scheduler's, or a LocalCluster started here."""
 
@@ -268,13 +276,24 @@ class _Dask:
             n = len(self.client.nthreads())
             self.where = f"on the Dask scheduler at {scheduler} with {n} worker{'s' * (n != 1)}"
         else:
-            self.cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,  # no port to collide with; this cluster is private
-                silence_logs=logging.ERROR,
-            )
+            import dask
+
+            saved = dict(os.environ)
+            try:
+                # No dashboard or profiler (nobody watches this private cluster), and the
+                # scheduler's HTTP endpoints on a free local port: the default 8787 may be
+                # another cluster's, which would only earn a warning.
+                with dask.config.set({"distributed.worker.profile.enabled": False}):
+                    self.cluster = LocalCluster(
+                        n_workers=workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                        silence_logs=logging.ERROR,
+                    )
+            finally:
+                _restore_environ(saved)  # the nannies export OMP_NUM_THREADS=1 etc. into ours
             self.client = Client(self.cluster, set_as_default=False)
             self.where = f"on a local Dask cluster of {workers} worker processes"
 
