@@ -265,6 +265,37 @@ def test_corner_axes_span_the_prior_box_with_truth_lines(posterior):
     assert sorted(ln.get_xdata()[0] for ln in edges) == pytest.approx([1.46, 4.38])
 
 
+def test_corner_density_is_one_image_per_panel_unless_its_cells_have_edges(posterior):
+    from matplotlib.collections import PolyQuadMesh
+
+    def count(fig):
+        images = sum(len(ax.images) for ax in fig.axes)
+        meshes = sum(isinstance(c, PolyQuadMesh) for ax in fig.axes for c in ax.collections)
+        return images, meshes
+
+    assert count(posterior.corner("attachment")) == (10, 0)  # 5 quantities, 10 2-D panels
+    edged = posterior.corner("attachment", pcolor_kwargs={"edgecolors": "k"})
+    assert count(edged) == (0, 10)
+
+
+def test_dropping_the_hidden_draws_leaves_the_corner_picture_unchanged(
+    posterior, tmp_path, monkeypatch
+):
+    def draws(fig):
+        return sum(
+            len(ln.get_xdata()) for ax in fig.axes for ln in ax.lines if ln.get_rasterized()
+        )
+
+    fig = posterior.corner("attachment", truths=TRUTHS)
+    kept = draws(fig)
+    (dropped,) = plots.save_figure(fig, tmp_path / "dropped", formats=("png",), dpi=100)
+    monkeypatch.setattr(plots, "_drop_hidden_points", lambda ax: None)
+    fig = posterior.corner("attachment", truths=TRUTHS)
+    (every,) = plots.save_figure(fig, tmp_path / "every", formats=("png",), dpi=100)
+    assert kept < draws(fig) / 2
+    assert compare_images(str(every), str(dropped), tol=0) is None  # the same pixels
+
+
 def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
     truths = {"weight": {"mass": 2.92}}
     fig = plots.plot_joint_corner(posterior, truths=truths)

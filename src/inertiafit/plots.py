@@ -786,12 +786,15 @@ def _density_as_image(ax) -> None:
     from matplotlib.collections import PolyQuadMesh
 
     for mesh in [c for c in ax.collections if isinstance(c, PolyQuadMesh)]:
+        edges = np.asarray(mesh.get_edgecolor(), dtype=float).reshape(-1, 4)
+        if mesh.get_hatch() or (edges[:, 3] > 0).any():
+            continue  # cell edges or hatching (pcolor_kwargs): not an image
         corners = np.asarray(mesh.get_coordinates())  # (rows + 1, columns + 1, 2), edges
         (x0, y0), (x1, y1) = corners[0, 0], corners[-1, -1]
         xlim, ylim = ax.get_xlim(), ax.get_ylim()
         ax.imshow(mesh.get_array(), cmap=mesh.get_cmap(), norm=mesh.norm, origin="lower",
                   extent=(x0, x1, y0, y1), interpolation="none", aspect="auto",
-                  zorder=mesh.get_zorder())  # fmt: skip
+                  alpha=mesh.get_alpha(), zorder=mesh.get_zorder())  # fmt: skip
         mesh.remove()
         ax.set_xlim(xlim)
         ax.set_ylim(ylim)
@@ -812,6 +815,7 @@ def _drop_hidden_points(ax) -> None:
     sampled on the page, a cell per pixel at the figure's dpi, and shrunk by the marker's
     reach.
     """
+    from matplotlib.colors import to_rgba
     from matplotlib.contour import ContourSet
     from matplotlib.path import Path
     from scipy import ndimage
@@ -846,7 +850,9 @@ def _drop_hidden_points(ax) -> None:
         filled ^= ring.contains_points(centres)
     for line in dots:
         xy = np.column_stack([line.get_xdata(), line.get_ydata()]).astype(float)
-        reach = (HIDDEN_MARGIN + 0.5 * line.get_markersize()) * ax.figure.dpi / 72
+        edge = to_rgba(line.get_markeredgecolor())[3] > 0
+        radius = 0.5 * (line.get_markersize() + (line.get_markeredgewidth() if edge else 0.0))
+        reach = (HIDDEN_MARGIN + radius) * ax.figure.dpi / 72
         r = math.ceil(reach) + 1
         disk = np.hypot(*np.mgrid[-r : r + 1, -r : r + 1]) <= r
         # cells whose whole disk is filled; the frame counts as unfilled (clipping differs)
