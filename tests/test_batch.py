@@ -198,6 +198,12 @@ def test_local_cluster_of_two_workers_gives_the_same_numbers_as_serial(serial, o
                 np.testing.assert_array_equal(p["posterior"][var], q["posterior"][var])
 
 
+def _clients_here() -> int:
+    import gc
+
+    return sum(type(o).__name__ == "Client" for o in gc.get_objects())
+
+
 @pytest.mark.slow
 def test_cli_on_an_explicit_scheduler(studies, serial, tmp_path, capsys):
     from distributed import Client, LocalCluster
@@ -217,7 +223,10 @@ def test_cli_on_an_explicit_scheduler(studies, serial, tmp_path, capsys):
         argv = ["run-many", str(studies[2]), "--out", str(out), "--formats", "png"]
         assert main([*argv, "--scheduler", addr, "--seed", "0"]) == 0
         backends = client.run(lambda: __import__("matplotlib").get_backend().lower())
+        # xarray writing posterior.nc must not have made the worker a client of its own
+        clients = client.run(_clients_here)
     assert list(backends.values()) == ["agg"]
+    assert list(clients.values()) == [0]
     cap = capsys.readouterr()
     assert f"running 1 study on the Dask scheduler at {addr} with 1 worker (ready in " in cap.err
     assert "1 of 1 studies done" in cap.out

@@ -33,12 +33,14 @@ from __future__ import annotations
 import logging
 import math
 import os
+import signal
 import socket
 import sys
 import time
 import traceback
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -119,10 +121,6 @@ def run_one(task: StudyTask) -> dict[str, Any]:
         "host": socket.gethostname(),
     }
     try:
-        if task.in_worker:
-            import matplotlib
-
-            matplotlib.use("Agg")  # figures are files; no worker has a display
         from inertiafit.study import run_study
 
         manifest = Path(task.manifest)
@@ -133,10 +131,21 @@ def run_one(task: StudyTask) -> dict[str, Any]:
             )
         from threadpoolctl import threadpool_limits
 
-        # One BLAS thread, as in a Dask worker: the sampler's draws depend on the BLAS thread
-        # count in their last digits, so this makes a study's numbers the same wherever it
-        # runs (and keeps concurrent studies from oversubscribing the cores).
-        with threadpool_limits(limits=1), warnings.catch_warnings(record=True) as caught:
+        with ExitStack() as stack:
+            if task.in_worker:
+                import dask
+                import matplotlib
+
+                matplotlib.use("Agg")  # figures are files; no worker has a display
+                # xarray asks dask for a scheduler when it writes posterior.nc; in a worker
+                # that would connect a client of the worker's own (and nothing here is a dask
+                # computation).
+                stack.enter_context(dask.config.set(scheduler="synchronous"))
+            # One BLAS thread, as in a Dask worker: the sampler's draws depend on the BLAS
+            # thread count in their last digits, so this makes a study's numbers the same
+            # wherever it runs (and keeps concurrent studies from oversubscribing the cores).
+            stack.enter_context(threadpool_limits(limits=1))
+            caught = stack.enter_context(warnings.catch_warnings(record=True))
             warnings.simplefilter("always", UserWarning)  # e.g. ConvergenceWarning
             result = run_study(
                 manifest,
@@ -246,6 +255,24 @@ class _Serial:
         """Nothing to close."""
 
 
+@contextmanager
+def _workers_ignore_sigint() -> Iterator[None]:
+    """Start worker processes with Ctrl-C ignored (they inherit it across ``exec``).
+
+    A Ctrl-C in a terminal reaches the whole process group. This process then cancels the
+    batch and stops its workers; the workers themselves would only print tracebacks.
+    """
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: leave the signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous if previous is not None else signal.SIG_DFL)
+
+
 def _restore_environ(saved: dict[str, str]) -> None:
     for key in set(os.environ) - set(saved):
         del os.environ[key]
@@ -283,7 +310,10 @@ class _Dask:
                 # No dashboard or profiler (nobody watches this private cluster), and the
                 # scheduler's HTTP endpoints on a free local port: the default 8787 may be
                 # another cluster's, which would only earn a warning.
-                with dask.config.set({"distributed.worker.profile.enabled": False}):
+                with (
+                    dask.config.set({"distributed.worker.profile.enabled": False}),
+                    _workers_ignore_sigint(),
+                ):
                     self.cluster = LocalCluster(
                         n_workers=workers,
                         threads_per_worker=1,
