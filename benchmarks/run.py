@@ -5,6 +5,7 @@
 3. processing   process_study vs reading the CSVs + sosfiltfilt (target <= 3x)
 4. end_to_end   `inertiafit run` vs the cold-import floor (target <= 4x, < 400 MB)
 5. scaling      K segments in one study; a batch of small studies
+6. batch        run-many: a batch serially vs a local Dask cluster of 2 workers (target >= 1.6x)
 
 Run:  .venv/bin/python benchmarks/run.py [--quick] [--json FILE] [--only NAME ...]
       [--pymc-python PATH]   (another venv's python with PyMC and inertiafit installed)
@@ -23,6 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import batch
 import common
 import end_to_end
 import peer_pymc
@@ -37,6 +39,7 @@ BENCHMARKS = {
     "processing": processing.run,
     "end_to_end": end_to_end.run,
     "scaling": scaling.run,
+    "batch": batch.run,
 }
 
 

@@ -1,0 +1,239 @@
+"""Batch: `inertiafit run-many` serially in one process vs on a local Dask cluster of 2 workers.
+
+N paper-shaped studies from ``paper_study`` (attachment alone and with the 3 kg disk, one
+quasi-static trial at 4 deg/s and three fast trials per speed at 240/270/300 deg/s, per
+condition: 20 trials at 1 kHz each), each a whole ``run_study`` with the default figure formats
+(pdf, png). Timed with ``inertiafit.batch.run_many``, the function behind the command:
+
+- serial: ``workers=1``, one study after another in this process; the imports are warmed up
+  first by one study outside the timing (as in a long-lived session);
+- dask: ``workers=2``, a ``LocalCluster`` of 2 single-threaded worker processes, its start-up
+  (also reported alone) and the workers' cold imports inside the timing.
+
+The two run alternately, ``--repeats`` times; the speed-up is the best serial time over the best
+dask time of this run (and per pair). The numbers of both must be identical
+(``batch-summary.csv`` byte for byte). Target: speed-up >= 1.6x on a 2-core machine; the
+machine and its load are printed, since other processes take the same cores.
+
+Each row also says how many cores other processes kept busy meanwhile (``/proc/stat`` less this
+process and its workers); ``--quiet-wait S`` waits up to S seconds before each timing for them
+to go quiet.
+
+Run:  .venv/bin/python benchmarks/batch.py [--quick] [--repeats N] [--studies N]
+      [--quiet-wait S] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import resource
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from common import standalone, table, verdict
+
+TARGET = 1.6
+WORKERS = 2
+
+
+def make_studies(folder: Path, n: int, seed: int) -> list[Path]:
+    from inertiafit.simulate import paper_study
+
+    return [
+        paper_study(
+            folder / f"study{i:02d}", seed=seed + i, trials_per_speed=3, quasi_static_speed=4.0
+        )
+        for i in range(n)
+    ]
+
+
+def machine_busy() -> float:
+    """CPU seconds the whole machine has been busy (every core, every process): /proc/stat."""
+    try:
+        ticks = [int(x) for x in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:9]]
+    except OSError:
+        return math.nan
+    idle = ticks[3] + ticks[4]  # idle, iowait
+    return (sum(ticks) - idle) / os.sysconf("SC_CLK_TCK")
+
+
+def own_cpu() -> float:
+    """CPU seconds of this process and its finished children (the Dask workers, once closed)."""
+    me, kids = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def others_now(seconds: float = 2.0) -> float:
+    """Cores kept busy by other processes over the next ``seconds``."""
+    busy, own, t0 = machine_busy(), own_cpu(), time.perf_counter()
+    time.sleep(seconds)
+    return (machine_busy() - busy - (own_cpu() - own)) / (time.perf_counter() - t0)
+
+
+def wait_for_quiet(limit: float, threshold: float = 0.25) -> float:
+    """Wait up to ``limit`` s until other processes use < ``threshold`` cores; their load."""
+    t0 = time.perf_counter()
+    load = others_now() if limit > 0 else math.nan
+    while load >= threshold and time.perf_counter() - t0 < limit:
+        load = others_now()
+    return load
+
+
+def timed_batch(manifests: list[Path], out: Path, workers: int, formats) -> dict:
+    from inertiafit.batch import run_many
+
+    busy, own = machine_busy(), own_cpu()
+    t0 = time.perf_counter()
+    result = run_many(manifests, out, workers=workers, formats=formats, echo=lambda _m: None)
+    wall = time.perf_counter() - t0
+    others = (machine_busy() - busy - (own_cpu() - own)) / wall
+    if not result.ok:
+        msg = f"benchmark batch failed: {result.table[['manifest', 'error']].to_dict('records')}"
+        raise RuntimeError(msg)
+    per_study = result.table["seconds"].astype(float)
+    return {
+        "mode": "serial" if workers == 1 else f"dask, {workers} workers",
+        "wall": wall,
+        "startup": result.startup_seconds,
+        "after_startup": wall - result.startup_seconds,
+        "study_mean": float(per_study.mean()),
+        "study_sum": float(per_study.sum()),
+        "converged": bool(result.table["converged"].all()),
+        "others": max(others, 0.0),
+        "summary": (out / "batch-summary.csv").read_bytes(),
+    }
+
+
+def load() -> str:
+    try:
+        return ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "n/a"
+
+
+def run(
+    *,
+    quick: bool = False,
+    seed: int = 7,
+    repeats: int | None = None,
+    studies: int | None = None,
+    quiet_wait: float = 0.0,
+) -> dict:
+    n = studies or (4 if quick else 8)
+    repeats = repeats or (1 if quick else 2)
+    formats = ("png",) if quick else ("pdf", "png")
+    rows = []
+    load_before = load()
+    with tempfile.TemporaryDirectory(prefix="inertiafit-bench-batch-") as tmp:
+        tmpdir = Path(tmp)
+        manifests = make_studies(tmpdir / "studies", n, seed)
+        warm = make_studies(tmpdir / "warm", 1, seed + 1000)
+        timed_batch(warm, tmpdir / "warm-out", 1, formats)  # imports out of the serial timing
+        for r in range(repeats):
+            serial, dask = (
+                {
+                    "quiet_before": wait_for_quiet(quiet_wait),
+                    **timed_batch(manifests, tmpdir / f"out-{r}-{workers}", workers, formats),
+                }
+                for workers in (1, WORKERS)
+            )
+            dask["speedup"] = serial["wall"] / dask["wall"]
+            dask["speedup_after_startup"] = serial["wall"] / dask["after_startup"]
+            dask["same_numbers"] = serial["summary"] == dask["summary"]
+            rows += [{"repeat": r + 1, **serial}, {"repeat": r + 1, **dask}]
+    for row in rows:
+        del row["summary"]
+    serial_rows = [r for r in rows if r["mode"] == "serial"]
+    dask_rows = [r for r in rows if r["mode"] != "serial"]
+    best_serial = min(r["wall"] for r in serial_rows)
+    best_dask = min(r["wall"] for r in dask_rows)
+    ratio = best_serial / best_dask
+    same = all(r["same_numbers"] for r in dask_rows)
+    text = table(
+        [
+            ("repeat", "repeat", "d"),
+            ("mode", "mode", ""),
+            ("wall", "wall (s)", ".1f"),
+            ("startup", "cluster start (s)", ".1f"),
+            ("after_startup", "after start (s)", ".1f"),
+            ("study_mean", "per study (s)", ".2f"),
+            ("others", "others (cores)", ".2f"),
+            ("speedup", "speed-up", ".2f"),
+            ("speedup_after_startup", "excl. start", ".2f"),
+            ("same_numbers", "same numbers", ""),
+        ],
+        [
+            {
+                **r,
+                "startup": r["startup"] if r["mode"] != "serial" else None,
+                "same_numbers": None
+                if "same_numbers" not in r
+                else ("yes" if r["same_numbers"] else "NO"),
+            }
+            for r in rows
+        ],
+    )
+    text += (
+        f"\n{n} paper-shaped studies (20 trials each, figures {','.join(formats)}); "
+        f"wall = the whole run_many call; per study: run_study's own time (on the cluster it "
+        f"includes each worker's cold imports);\nothers: cores kept busy by other processes "
+        f"during the run (from /proc/stat less this process and its workers): the cores the "
+        f"workers had were {WORKERS} less that.\nspeed-up = serial wall / dask wall of the same "
+        f"repeat; best serial {best_serial:.1f} s / best dask {best_dask:.1f} s = "
+        f"{ratio:.2f}x (target >= {TARGET:g}x: {verdict(ratio, TARGET, below=False)}); "
+        f"load average before: {load_before}, after: {load()}."
+    )
+    return {
+        "name": "batch",
+        "title": f"6. Batch: {n} studies serially vs a local Dask cluster of {WORKERS} workers",
+        "studies": n,
+        "formats": list(formats),
+        "rows": rows,
+        "best_serial": best_serial,
+        "best_dask": best_dask,
+        "speedup": ratio,
+        "speedup_median_of_pairs": float(np.median([r["speedup"] for r in dask_rows])),
+        "same_numbers": same,
+        "table": text,
+        "targets": [
+            {
+                "target": f"run-many on {WORKERS} local workers >= {TARGET:g}x serial",
+                "value": f"{ratio:.2f}x",
+                "status": verdict(ratio, TARGET, below=False),
+            },
+            {
+                "target": "serial and dask numbers identical",
+                "value": "yes" if same else "no",
+                "status": "met" if same else "NOT met",
+            },
+        ],
+    }
+
+
+def main() -> None:
+    standalone(
+        run,
+        __doc__,
+        seed=7,
+        quick_help="4 studies, PNG only, one repeat",
+        options={
+            "--repeats": {"type": int, "help": "serial/dask pairs (default 2; quick 1)"},
+            "--studies": {"type": int, "help": "studies in the batch (default 8; quick 4)"},
+            "--quiet-wait": {
+                "type": float,
+                "default": 0.0,
+                "help": "wait up to this many seconds before each timing until other processes "
+                "use < 0.25 cores (a shared machine)",
+            },
+        },
+    )
+
+
+if __name__ == "__main__":
+    main()
