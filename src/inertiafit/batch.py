@@ -20,10 +20,12 @@ Every study is sampled with ``seed``, as ``inertiafit run STUDY --seed N`` would
 one BLAS thread, as in a Dask worker, on whichever worker and in whichever order it runs: its
 numbers are the same serially and on a cluster. (``inertiafit run`` uses every BLAS thread;
 the sampler's draws depend on that count in their last digits, so its numbers can differ from
-``run-many``'s in the last printed digit of a diagnostic such as R-hat.) One study's failure does not stop the others: it
-is recorded as ``failed`` with its one-line error. Bad arguments (no manifests, a manifest that
-does not exist, an unreachable scheduler) raise :class:`~inertiafit.errors.InputError` before
-anything is written. ``out`` is replaced whole, as by ``run``.
+``run-many``'s in the last printed digit of a diagnostic such as R-hat.)
+
+One study's failure does not stop the others: it is recorded as ``failed`` with its one-line
+error. Bad arguments (no manifests, a manifest that does not exist, an unreachable scheduler)
+raise :class:`~inertiafit.errors.InputError` before anything is written. ``out`` is replaced
+whole, as by ``run``.
 
 Dask (``dask``, ``distributed``) is imported only when a cluster is used.
 """
