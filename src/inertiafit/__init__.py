@@ -31,6 +31,7 @@ _LAZY = {
     "SamplerSettings": "inertiafit.sampler",
     "analyse_study": "inertiafit.study",
     "run_study": "inertiafit.study",
+    "run_many": "inertiafit.batch",
     "Posterior": "inertiafit.result",
     "open_posterior": "inertiafit.result",
     "reference_posterior": "inertiafit.reference",
