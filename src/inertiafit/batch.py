@@ -50,7 +50,7 @@ from typing import Any
 import pandas as pd
 
 from inertiafit.errors import InputError
-from inertiafit.outputs import MARKER, output_folder
+from inertiafit.outputs import MARKER, check_replaceable, output_folder
 
 #: Columns of ``batch.csv``.
 BATCH_COLUMNS = [
@@ -403,14 +403,7 @@ def _check_inputs(manifests, out: Path, scheduler, workers, hdi_prob) -> list[Pa
     if scheduler is not None and not str(scheduler).strip():
         raise InputError("--scheduler: expected an address such as tcp://host:8786, got ''")
     # The checks of outputs.output_folder, made before a cluster is started for nothing.
-    if out.exists():
-        if not out.is_dir():
-            raise InputError(f"--out {out}: exists and is not a folder")
-        if any(out.iterdir()) and not (out / MARKER).exists():
-            raise InputError(
-                f"--out {out}: folder exists, is not empty and was not written by inertiafit; "
-                "choose a new folder"
-            )
+    check_replaceable(out)
     root = out.resolve()
     for p in paths:
         if p.resolve().is_relative_to(root):

@@ -18,10 +18,8 @@ from inertiafit.errors import InputError
 MARKER = ".inertiafit-output"
 
 
-@contextmanager
-def output_folder(out: str | Path) -> Iterator[Path]:
-    """Yield a temporary folder; on success it replaces ``out``, on error it is removed."""
-    out = Path(out)
+def check_replaceable(out: Path) -> None:
+    """Refuse an ``out`` that is a file, or a non-empty folder inertiafit did not write."""
     if out.exists():
         if not out.is_dir():
             raise InputError(f"--out {out}: exists and is not a folder")
@@ -30,6 +28,13 @@ def output_folder(out: str | Path) -> Iterator[Path]:
                 f"--out {out}: folder exists, is not empty and was not written by inertiafit; "
                 "choose a new folder"
             )
+
+
+@contextmanager
+def output_folder(out: str | Path) -> Iterator[Path]:
+    """Yield a temporary folder; on success it replaces ``out``, on error it is removed."""
+    out = Path(out)
+    check_replaceable(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:

@@ -148,7 +148,7 @@ def find_window(
     filtered = trial if "acceleration" in trial else lowpass(trial, cutoff=cutoff, order=order)
     if window is None and "window" in trial.attrs:
         window = tuple(np.ravel(trial.attrs["window"]).tolist())
-    found = _window(
+    return find_window_arrays(
         filtered["time"].values,
         filtered["velocity"].values,
         filtered["acceleration"].values,
@@ -159,9 +159,6 @@ def find_window(
         tolerance=tolerance,
         min_speed_change=min_speed_change,
     )
-    for flag in found.flags:
-        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=2)
-    return found
 
 
 def find_window_arrays(
