@@ -112,7 +112,10 @@ def test_models_the_blocked_sampler_cannot_take():
     # the segment's condition has no gravity moment: its total cannot be proposed from evidence
     no_gravity = model_of([(("a",), obs(0.1), obs(4.0)), (("a", "b"), obs(0.2), None)])
     assert star_structure(no_gravity) is None
-    for m in (never_alone, no_gravity):
+    # the attachment alone without its gravity moment: nothing pins its shared proposal
+    alone_no_gravity = model_of([(("a",), obs(0.1), None), (("a", "b"), obs(0.2), obs(8.0))])
+    assert star_structure(alone_no_gravity) is None
+    for m in (never_alone, no_gravity, alone_no_gravity):
         assert resolve_moves(m, "auto") == "independent"
         with pytest.raises(InputError, match="moves 'blocked' needs"):
             resolve_moves(m, "blocked")

@@ -63,7 +63,8 @@ def star_structure(model: Model) -> Star | None:
     """The shared/leaf decomposition of ``model``, or ``None`` where the blocked sampler can't run.
 
     It runs when at least one body is a leaf (see the module docstring) and every shared body is
-    measured in some condition without leaves, whose evidence then anchors the shared proposal.
+    measured in some condition without leaves, with both observables in every such condition:
+    their evidence anchors the shared proposal.
     """
     member = model.membership.astype(bool)  # (conditions, bodies)
     n_cond_of_body = member.sum(0)
@@ -89,6 +90,9 @@ def star_structure(model: Model) -> Star | None:
             return None
         if any(member[ci][leaves].any() for ci in shared_conds):
             return None
+        own = [model.conditions[ci] for ci in shared_conds]
+        if any(c.inertia is None or c.gravity_moment is None for c in own):
+            return None  # the shared proposal's Laplace fit needs both observables
     weights = np.array([[member[ci, s] for s in shared] for ci in leaf_conds], dtype=float)
     return Star(
         tuple(shared),
