@@ -38,9 +38,10 @@ class SamplerSettings:
     Attributes
     ----------
     n_walkers : int
-        Ensemble size (at least ``2 * ndim + 2``).
+        emcee's ensemble size (raised to ``2 * ndim + 2`` if smaller), or the number of
+        independent chains of the blocked sampler.
     chunk : int
-        Steps between convergence checks.
+        Steps (blocked sampler: sweeps) between convergence checks.
     max_steps : int
         Bound on the total number of steps.
     ess_min : float
