@@ -94,13 +94,22 @@ def feasible_measure(first_moment, inertia, prior: Box):
     return np.maximum(hi1 - lo1, 0.0) + np.maximum(hi2 - lo2, 0.0)
 
 
-def draw_angles(first_moment, inertia, prior: Box, rng: np.random.Generator):
-    """Draw ``psi`` uniformly from ``Psi(a, b)`` for each pair (arrays of one shape)."""
+def angles_at(first_moment, inertia, prior: Box, fraction):
+    """The angle ``fraction`` (in ``[0, 1)``) of the way through ``Psi(a, b)``.
+
+    ``fraction`` broadcasts against ``(a, b)``; uniform fractions give uniform angles.
+    """
     lo1, hi1, lo2, hi2 = feasible_angles(first_moment, inertia, prior)
     len1 = np.maximum(hi1 - lo1, 0.0)
     len2 = np.maximum(hi2 - lo2, 0.0)
-    u = rng.uniform(size=np.shape(len1)) * (len1 + len2)
+    u = np.asarray(fraction) * (len1 + len2)
     return np.where(u < len1, lo1 + u, lo2 + (u - len1))
+
+
+def draw_angles(first_moment, inertia, prior: Box, rng: np.random.Generator):
+    """Draw ``psi`` uniformly from ``Psi(a, b)`` for each pair (arrays of one shape)."""
+    shape = np.broadcast_shapes(np.shape(first_moment), np.shape(inertia))
+    return angles_at(first_moment, inertia, prior, rng.uniform(size=shape))
 
 
 @dataclass(frozen=True)

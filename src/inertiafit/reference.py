@@ -60,6 +60,26 @@ class ReferencePosterior:
         return np.interp(np.asarray(q), c, v)
 
 
+def _identified_support(prior: Prior) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Ranges of ``a = m x`` and ``b = I`` over the prior box (its corners bound both)."""
+    lo, up = prior.lower, prior.upper
+    a_rng = (lo["mass"] * lo["com_distance"], up["mass"] * up["com_distance"])
+    b_rng = (
+        lo["mass"] * (lo["radius_of_gyration"] ** 2 + lo["com_distance"] ** 2),
+        up["mass"] * (up["radius_of_gyration"] ** 2 + up["com_distance"] ** 2),
+    )
+    return a_rng, b_rng
+
+
+def _edges(center: float, half: float, support: tuple[float, float], n: int) -> np.ndarray:
+    """``n + 1`` cell edges over ``center +- half`` clipped to ``support``."""
+    return np.linspace(max(support[0], center - half), min(support[1], center + half), n + 1)
+
+
+def _midpoints(edges: np.ndarray) -> np.ndarray:
+    return 0.5 * (edges[1:] + edges[:-1])
+
+
 def reference_posterior(
     prior: Prior,
     inertia: Observation,
@@ -90,15 +110,12 @@ def reference_posterior(
     ReferencePosterior
     """
     lo, up = prior.lower, prior.upper
-    a_lo, a_hi = lo["mass"] * lo["com_distance"], up["mass"] * up["com_distance"]
-    b_lo = lo["mass"] * (lo["radius_of_gyration"] ** 2 + lo["com_distance"] ** 2)
-    b_hi = up["mass"] * (up["radius_of_gyration"] ** 2 + up["com_distance"] ** 2)
+    a_rng, b_rng = _identified_support(prior)
     ca, ha = gravity_moment.center / gravity, gravity_moment.quantile_halfwidth(tail) / gravity
     cb, hb = inertia.center, inertia.quantile_halfwidth(tail)
-    a_edges = np.linspace(max(a_lo, ca - ha), min(a_hi, ca + ha), n_identified + 1)
-    b_edges = np.linspace(max(b_lo, cb - hb), min(b_hi, cb + hb), n_identified + 1)
-    a = 0.5 * (a_edges[1:] + a_edges[:-1])
-    b = 0.5 * (b_edges[1:] + b_edges[:-1])
+    a_edges = _edges(ca, ha, a_rng, n_identified)
+    b_edges = _edges(cb, hb, b_rng, n_identified)
+    a, b = _midpoints(a_edges), _midpoints(b_edges)
     # Masses the grid can reach: rho >= 0 gives m >= a^2 / b; x inside its bounds bounds m too.
     m_min = max(lo["mass"], a_edges[0] ** 2 / b_edges[-1], a_edges[0] / up["com_distance"])
     m_max = min(up["mass"], a_edges[-1] / lo["com_distance"])
@@ -174,7 +191,7 @@ def star_reference(
         One per body, keyed by name.
     """
     from inertiafit.blocked import Star, star_structure
-    from inertiafit.model import feasible_angles, feasible_measure
+    from inertiafit.model import angles_at, feasible_measure
     from inertiafit.physics import parameters_from_identified
 
     star: Star | None
@@ -190,19 +207,8 @@ def star_reference(
     if any(c.inertia is None or c.gravity_moment is None for c in own):
         raise ValueError("star_reference: the shared body's conditions need both observables")
 
-    def support(prior):
-        lo, up = prior.lower, prior.upper
-        a_rng = (lo["mass"] * lo["com_distance"], up["mass"] * up["com_distance"])
-        b_rng = (
-            lo["mass"] * (lo["radius_of_gyration"] ** 2 + lo["com_distance"] ** 2),
-            up["mass"] * (up["radius_of_gyration"] ** 2 + up["com_distance"] ** 2),
-        )
-        return a_rng, b_rng
-
-    def grid(center, half, rng):
-        lo, hi = max(rng[0], center - half), min(rng[1], center + half)
-        edges = np.linspace(lo, hi, n_grid + 1)
-        return 0.5 * (edges[1:] + edges[:-1])
+    def grid(center, half, support):
+        return _midpoints(_edges(center, half, support, n_grid))
 
     def log_prior(a, b, prior):
         with np.errstate(divide="ignore"):
@@ -215,7 +221,7 @@ def star_reference(
     c0 = min(own, key=lambda c: c.inertia.scale)  # type: ignore[union-attr]
     ca_s, ha_s = c0.gravity_moment.center / g, c0.gravity_moment.quantile_halfwidth(tail) / g  # type: ignore[union-attr]
     cb_s, hb_s = c0.inertia.center, c0.inertia.quantile_halfwidth(tail)  # type: ignore[union-attr]
-    sa_rng, sb_rng = support(model.priors[shared])
+    sa_rng, sb_rng = _identified_support(model.priors[shared])
     a_s, b_s = grid(ca_s, ha_s, sa_rng), grid(cb_s, hb_s, sb_rng)
     log_ws = log_prior(a_s, b_s, model.priors[shared])
     for c in own:
@@ -231,7 +237,7 @@ def star_reference(
         obs_g, obs_i = cond.gravity_moment, cond.inertia
         ca, ha = obs_g.center / g - ca_s, (obs_g.quantile_halfwidth(tail) / g) + ha_s  # type: ignore[union-attr]
         cb, hb = obs_i.center - cb_s, obs_i.quantile_halfwidth(tail) + hb_s  # type: ignore[union-attr]
-        a_rng, b_rng = support(prior)
+        a_rng, b_rng = _identified_support(prior)
         a_k, b_k = grid(ca, ha, a_rng), grid(cb, hb, b_rng)
         pi_k = np.exp(log_prior(a_k, b_k, prior))
         lg = evidence(obs_g, g * (a_s[:, None] + a_k[None, :]))  # (S_a, k_a)
@@ -259,12 +265,10 @@ def star_reference(
         values = {"inertia": B[keep], "gravity_moment": g * A[keep]}
         weights = w[keep]
         if n_angle:
-            lo1, hi1, lo2, hi2 = feasible_angles(A[keep], B[keep], model.priors[name])
-            len1, len2 = np.maximum(hi1 - lo1, 0), np.maximum(hi2 - lo2, 0)
-            u = (np.arange(n_angle) + 0.5) / n_angle * (len1 + len2)[:, None]
-            psi = np.where(u < len1[:, None], lo1[:, None] + u, lo2[:, None] + (u - len1[:, None]))
             aa = np.repeat(A[keep][:, None], n_angle, 1)
             bb = np.repeat(B[keep][:, None], n_angle, 1)
+            # psi uniform on Psi(a, b): the midpoints of n_angle equal parts of it
+            psi = angles_at(aa, bb, model.priors[name], (np.arange(n_angle) + 0.5) / n_angle)
             mass, x, rho = parameters_from_identified(aa, bb, psi)
             values = {
                 "mass": mass.ravel(),
