@@ -300,11 +300,8 @@ def _moves(kind: str, mode: np.ndarray, cov: np.ndarray, df: float = 5.0):
             (emcee.moves.DEMove(), 0.2),
             (emcee.moves.DESnookerMove(), 0.1),
         ]
-    if kind == "stretch":
-        return [(emcee.moves.StretchMove(), 1.0)]
-    raise InputError(
-        f"sampler: unknown moves '{kind}' (expected 'independent', 'de' or 'stretch')"
-    )
+    assert kind == "stretch", kind  # names are checked by resolve_moves
+    return [(emcee.moves.StretchMove(), 1.0)]
 
 
 def _progress(enabled: bool, steps: int, max_steps: int, tau: float, ess: float, t0: float):
@@ -336,46 +333,29 @@ def resolve_moves(model: Model, moves: str) -> str:
             f"sampler: unknown moves '{moves}' "
             "(expected 'auto', 'blocked', 'independent', 'de' or 'stretch')"
         )
-    if moves == "blocked" and star_structure(model) is None:
-        raise InputError(
-            "sampler: moves 'blocked' needs bodies mounted in one condition each beside shared "
-            "bodies that are also measured on their own; this model has none"
-        )
-    if moves == "auto":
-        several = len(model.bodies) >= 2
-        return "blocked" if several and star_structure(model) is not None else "independent"
-    return moves
+    if moves not in ("auto", "blocked"):
+        return moves
+    if star_structure(model) is None:
+        if moves == "blocked":
+            raise InputError(
+                "sampler: moves 'blocked' needs bodies mounted in one condition each beside "
+                "shared bodies that are also measured on their own; this model has none"
+            )
+        return "independent"
+    return "blocked" if moves == "blocked" or len(model.bodies) >= 2 else "independent"
 
 
-class _Chains:
-    """The two samplers behind one interface: advance, the chain so far, acceptance."""
+class _EmceeChains:
+    """emcee's ensemble with the joint moves (``independent``, ``de``, ``stretch``)."""
 
     def __init__(self, model: Model, moves: str, n_walkers: int, seed: int) -> None:
-        rng = np.random.default_rng(seed)
-        self.moves = moves
-        if moves == "blocked":
-            from inertiafit.blocked import BlockedGibbs, star_structure
-
-            star = star_structure(model)
-            assert star is not None
-            if star.shared:
-                shared = BlockedGibbs.shared_submodel(model, star)
-                mode, cov = _laplace(shared, rng)
-                df = _proposal_df(shared)
-            else:
-                mode, cov, df = np.zeros(0), np.zeros((0, 0)), 5.0
-            self.gibbs = BlockedGibbs(model, star, mode, cov, df)
-            self.random = np.random.default_rng([seed, 3])
-            self.state = self.gibbs.start(n_walkers, self.random)
-            self.steps: list[np.ndarray] = []
-            self.iteration = 0
-            return
         import emcee
 
+        rng = np.random.default_rng(seed)
         d = model.ndim
         n_walkers = max(n_walkers, 2 * d + 2)
         mode, cov = _laplace(model, rng)
-        self.emcee_state = _initial_walkers(model, n_walkers, mode, cov, rng)
+        self.state = _initial_walkers(model, n_walkers, mode, cov, rng)
         self.sampler = emcee.EnsembleSampler(
             n_walkers,
             d,
@@ -387,36 +367,68 @@ class _Chains:
         self.sampler.random_state = np.random.RandomState(seed).get_state()
 
     def run(self, steps: int) -> None:
-        if self.moves == "blocked":
-            block = np.empty((steps, len(self.state[1]), self.gibbs.model.ndim))
-            for i in range(steps):
-                self.state = self.gibbs.sweep(*self.state, self.random)
-                block[i] = self.gibbs.joint_coordinates(*self.state)
-            self.steps.append(block)
-            self.iteration += steps
-        else:
-            self.emcee_state = self.sampler.run_mcmc(self.emcee_state, steps, progress=False)
+        self.state = self.sampler.run_mcmc(self.state, steps, progress=False)
 
     @property
     def n_steps(self) -> int:
-        return self.iteration if self.moves == "blocked" else int(self.sampler.iteration)
+        return int(self.sampler.iteration)
 
     def chain(self) -> np.ndarray:
         """Every step so far, ``(steps, walkers, ndim)``."""
-        if self.moves == "blocked":
-            if len(self.steps) > 1:
-                self.steps = [np.concatenate(self.steps)]
-            return self.steps[0]
         return self.sampler.get_chain()
 
+    def log_prob(self, burn: int) -> np.ndarray:
+        """Log density of the draws after ``burn``, ``(walkers, draws)`` (emcee stored it)."""
+        return np.swapaxes(self.sampler.get_log_prob()[burn:], 0, 1)
+
     def acceptance(self) -> dict[str, float]:
-        if self.moves == "blocked":
-            rates = self.gibbs.acceptance
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # nan for a block that never ran
-                mean = float(np.nanmean(list(rates.values())))
-            return {"acceptance": mean, **rates}
         return {"acceptance": float(np.mean(self.sampler.acceptance_fraction))}
+
+
+class _BlockedChains:
+    """The blocked Gibbs sampler of :mod:`inertiafit.blocked`, chains as walkers."""
+
+    def __init__(self, model: Model, star, n_walkers: int, seed: int) -> None:
+        from inertiafit.blocked import BlockedGibbs
+
+        if star.shared:
+            shared = BlockedGibbs.shared_submodel(model, star)
+            mode, cov = _laplace(shared, np.random.default_rng(seed))
+            df = _proposal_df(shared)
+        else:
+            mode, cov, df = np.zeros(0), np.zeros((0, 0)), 5.0
+        self.model = model
+        self.gibbs = BlockedGibbs(model, star, mode, cov, df)
+        self.random = np.random.default_rng([seed, 3])
+        self.state = self.gibbs.start(n_walkers, self.random)
+        self.steps: list[np.ndarray] = []
+        self.n_steps = 0
+
+    def run(self, steps: int) -> None:
+        block = np.empty((steps, len(self.state[1]), self.model.ndim))
+        for i in range(steps):
+            self.state = self.gibbs.sweep(*self.state, self.random)
+            block[i] = self.gibbs.joint_coordinates(*self.state)
+        self.steps.append(block)
+        self.n_steps += steps
+
+    def chain(self) -> np.ndarray:
+        """Every sweep so far, ``(sweeps, chains, ndim)``."""
+        if len(self.steps) > 1:
+            self.steps = [np.concatenate(self.steps)]
+        return self.steps[0]
+
+    def log_prob(self, burn: int) -> np.ndarray:
+        """Log density of the draws after ``burn``, ``(chains, draws)`` (computed: none kept)."""
+        kept = np.swapaxes(self.chain()[burn:], 0, 1)
+        return self.model.log_prob(kept.reshape(-1, self.model.ndim)).reshape(kept.shape[:2])
+
+    def acceptance(self) -> dict[str, float]:
+        rates = self.gibbs.acceptance
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # nan for a block that never ran
+            mean = float(np.nanmean(list(rates.values())))
+        return {"acceptance": mean, **rates}
 
 
 def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = None) -> SamplerRun:
@@ -447,7 +459,13 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
     s = settings or SamplerSettings()
     moves = resolve_moves(model, s.moves)
     d = model.ndim
-    chains = _Chains(model, moves, s.n_walkers, seed)
+    chains: _EmceeChains | _BlockedChains
+    if moves == "blocked":
+        from inertiafit.blocked import star_structure
+
+        chains = _BlockedChains(model, star_structure(model), s.n_walkers, seed)
+    else:
+        chains = _EmceeChains(model, moves, s.n_walkers, seed)
     show = sys.stderr.isatty() if s.progress is None else s.progress
     t0 = time.perf_counter()
     converged = False
@@ -488,10 +506,7 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
             ConvergenceWarning,
             stacklevel=2,
         )
-    if moves == "blocked":
-        log_prob = model.log_prob(kept.reshape(-1, d)).reshape(kept.shape[:2])
-    else:
-        log_prob = np.swapaxes(chains.sampler.get_log_prob()[burn:], 0, 1)
+    log_prob = chains.log_prob(burn)
     accept = chains.acceptance()
     return SamplerRun(
         chain=kept,
