@@ -3,7 +3,7 @@
 N paper-shaped studies from ``paper_study`` (attachment alone and with the 3 kg disk, one
 quasi-static trial at 4 deg/s and three fast trials per speed at 240/270/300 deg/s, per
 condition: 20 trials at 1 kHz each), each a whole ``run_study`` with the default figure formats
-(pdf, png). Timed with ``inertiafit.batch.run_many``, the function behind the command:
+(pdf, png). Timed with ``inertiafit.pipeline.batch.run_many``, the function behind the command:
 
 - serial: ``workers=1``, one study after another in this process; the imports are warmed up
   first by one study outside the timing (as in a long-lived session);
@@ -86,7 +86,7 @@ def wait_for_quiet(limit: float, threshold: float = 0.25) -> float:
 
 
 def timed_batch(manifests: list[Path], out: Path, workers: int, formats) -> dict:
-    from inertiafit.batch import run_many
+    from inertiafit.pipeline.batch import run_many
 
     busy, own = machine_busy(), own_cpu()
     t0 = time.perf_counter()

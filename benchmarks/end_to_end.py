@@ -27,17 +27,17 @@ RATIO_TARGET = 4.0
 MEMORY_TARGET_MB = 400.0
 FLOOR_IMPORTS = "import inertiafit, emcee, arviz, corner, matplotlib, scipy, xarray"
 
-# Runs in a child: times every stage of `run` by wrapping it (tolerant of moved functions).
+# Runs in a child: times every stage of `run` by wrapping it. A function is wrapped where it is
+# defined and under every module attribute bound to it (re-exports, `from x import f` in its
+# callers); a name that no longer exists there stops the benchmark with the name to update.
 STAGES_CHILD = r"""
 import functools, importlib, json, sys, time
 T0 = time.perf_counter()
 import inertiafit, emcee, arviz, corner, matplotlib, scipy, xarray
 T_IMPORT = time.perf_counter() - T0
 times = {}
-def wrap(owner, attr, label):
-    fn = getattr(owner, attr, None)
-    if fn is None:
-        return
+originals = {}
+def timer(fn, label):
     @functools.wraps(fn)
     def timed(*a, **k):
         t = time.perf_counter()
@@ -45,38 +45,51 @@ def wrap(owner, attr, label):
             return fn(*a, **k)
         finally:
             times[label] = times.get(label, 0.0) + time.perf_counter() - t
-    setattr(owner, attr, timed)
-def mod(name):
-    try:
-        return importlib.import_module(name)
-    except ImportError:
-        return None
-study, inference, sampler, result = (mod("inertiafit." + m) for m in
-                                     ("study", "inference", "sampler", "result"))
-processing, plots, report = (mod("inertiafit." + m) for m in ("processing", "plots", "report"))
-rendering = mod("inertiafit.rendering")
+    return timed
+def missing(where):
+    sys.exit(f"benchmarks/end_to_end.py: {where} no longer exists; update STAGES_CHILD")
+def wrap(owner, attr, label):
+    # a method (or any attribute) of a class or object other than a module
+    fn = getattr(owner, attr, None)
+    if not callable(fn):
+        missing(f"{getattr(owner, '__qualname__', owner)}.{attr}")
+    setattr(owner, attr, timer(fn, label))
+def wrap_function(module, attr, label):
+    # a function: in its defining module and in every loaded inertiafit module that binds it;
+    # modules imported later bind the wrapper, since they import it from one of those
+    home = importlib.import_module(module)
+    fn = vars(home).get(attr)
+    if not callable(fn) or getattr(fn, "__module__", None) != module:
+        missing(f"function {module}.{attr}")
+    timed = timer(fn, label)
+    originals[id(fn)] = (fn, f"{module}.{attr}")
+    for name, m in list(sys.modules.items()):
+        if name.split(".")[0] == "inertiafit":
+            for key, value in list(vars(m).items()):
+                if value is fn:
+                    setattr(m, key, timed)
 from matplotlib.figure import Figure
-wrap(study, "process_study", "process_study")
-wrap(inference, "fit", "fit (sampling + DataTree)")
-wrap(inference, "sample", "  sample (Laplace start + emcee + checks)")
-wrap(sampler, "_laplace", "    Laplace start")
-wrap(inference, "build_tree", "  build_tree")
-wrap(processing, "speed_effect", "speed_effect")
-wrap(study, "paper_baselines", "paper_baselines")
-wrap(study, "comparison_table", "comparison_table")
-for owner in (study, rendering):
-    if owner is not None:
-        wrap(owner, "write_study_outputs", "write_study_outputs")
-wrap(result.Posterior, "corner", "  corner plots")
-wrap(result.Posterior, "save", "  posterior.nc")
-wrap(result.Posterior, "summary", "summary tables (all calls)")
-wrap(plots, "plot_joint_corner", "  plot_joint_corner")
-wrap(plots, "plot_identification_curve", "  plot_identification_curve")
-wrap(plots, "plot_trace", "  plot_trace")
-wrap(plots, "plot_rank", "  plot_rank")
-wrap(plots, "plot_fast_trials", "  plot_fast_trials")
-wrap(plots, "plot_inertia_by_speed", "  plot_inertia_by_speed")
-wrap(report, "write_report", "  report.html")
+from inertiafit.posterior import Posterior
+wrap_function("inertiafit.processing.study", "process_study", "process_study")
+wrap_function("inertiafit.inference.fit", "fit", "fit (sampling + DataTree)")
+wrap_function("inertiafit.inference.sampler", "sample", "  sample (Laplace start + emcee + checks)")
+wrap_function("inertiafit.inference.moves", "laplace_fit", "    Laplace start")
+wrap_function("inertiafit.inference.fit", "build_tree", "  build_tree")
+wrap_function("inertiafit.processing.speed", "speed_effect", "speed_effect")
+wrap_function("inertiafit.pipeline.study", "paper_baselines", "paper_baselines")
+wrap_function("inertiafit.report.comparison", "comparison_table", "comparison_table")
+wrap_function("inertiafit.report.outputs", "write_outputs", "write_outputs")
+wrap(Posterior, "corner", "  corner plots")
+wrap(Posterior, "save", "  posterior.nc")
+wrap(Posterior, "summary", "summary tables (all calls)")
+wrap_function("inertiafit.report.plots.corner", "plot_joint_corner", "  plot_joint_corner")
+wrap_function("inertiafit.report.plots.identification", "plot_identification_curve",
+              "  plot_identification_curve")
+wrap_function("inertiafit.report.plots.diagnostics", "plot_trace", "  plot_trace")
+wrap_function("inertiafit.report.plots.diagnostics", "plot_rank", "  plot_rank")
+wrap_function("inertiafit.report.plots.trials", "plot_fast_trials", "  plot_fast_trials")
+wrap_function("inertiafit.report.plots.trials", "plot_inertia_by_speed", "  plot_inertia_by_speed")
+wrap_function("inertiafit.report.html", "write_report", "  report.html")
 orig_savefig = Figure.savefig
 def savefig(self, fname, *a, **k):
     t = time.perf_counter()
@@ -96,6 +109,14 @@ T1 = time.perf_counter()
 with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
     rc = main(sys.argv[2:])
 T_MAIN = time.perf_counter() - T1
+unwrapped = sorted(
+    f"{name}.{key} is the unwrapped {originals[id(value)][1]}"
+    for name, m in list(sys.modules.items()) if name.split(".")[0] == "inertiafit"
+    for key, value in list(vars(m).items()) if id(value) in originals
+    and value is originals[id(value)][0]
+)
+if unwrapped:
+    sys.exit("benchmarks/end_to_end.py: calls not timed: " + "; ".join(unwrapped))
 json.dump({"rc": rc, "import": T_IMPORT, "main": T_MAIN, "total": time.perf_counter() - T0,
            "stages": times}, open(sys.argv[1], "w"))
 """
@@ -198,6 +219,8 @@ def run(*, quick: bool = False, seed: int = 11) -> dict:
             check=True,
         )
         stages = json.loads(stage_file.read_text())
+        if stages["rc"]:
+            raise RuntimeError(f"the timed `inertiafit run` exited with {stages['rc']}")
         top = []
         if not quick:  # a profiled run costs ~1.6x a plain one
             prof_file = tmpdir / "run.prof"
@@ -270,7 +293,7 @@ def run(*, quick: bool = False, seed: int = 11) -> dict:
         "speed_effect",
         "paper_baselines",
         "comparison_table",
-        "write_study_outputs",
+        "write_outputs",
         "  corner plots",
         "  plot_fast_trials",
         "  plot_joint_corner",
@@ -307,6 +330,9 @@ def run(*, quick: bool = False, seed: int = 11) -> dict:
     text += table(
         [("stage", "stage", ""), ("seconds", "seconds", ".3f"), ("share", "share", ".0%")], srows
     )
+    idle = [key.strip() for key in order if key not in stages["stages"]]
+    if idle:
+        text += f"\nwrapped but not called in this run: {', '.join(idle)}\n"
     if top:
         text += "\n\ncProfile, top entries by own time (profiling inflates the totals):\n"
         text += table(

@@ -1,7 +1,7 @@
 """Peer: PyMC's NUTS on the same model and posteriors as benchmarks/sampler.py.
 
 The model a PyMC user would write: uniform box priors on (m, x, rho), I = m (rho^2 + x^2) and
-M_g = g m x, and the likelihood of ``inertiafit.observations.Observation`` (a Student-t with
+M_g = g m x, and the likelihood of ``inertiafit.inference.observations.Observation`` (a Student-t with
 ``n - 1`` degrees of freedom and scale SE for repeated trials, a Gaussian for a value with its
 SE) on each. PyMC's defaults (4 chains, 1000 tuning + 1000 draws, target_accept 0.8), run one
 chain after another on one core (``cores=1``) as inertiafit's sampler does. Judged by the
@@ -73,7 +73,7 @@ def run(*, quick: bool = False, seed: int = 1) -> dict:
     from arviz_stats import ess
     from sampler import cases
 
-    from inertiafit.reference import reference_posterior
+    from inertiafit.inference.reference import reference_posterior
 
     if not available():
         return {

@@ -39,7 +39,7 @@ def stage_profile(manifest: Path) -> list[dict]:
     import cProfile
     import pstats
 
-    from inertiafit.study import process_study
+    from inertiafit.processing.study import process_study
 
     prof = cProfile.Profile()
     prof.enable()
@@ -51,7 +51,7 @@ def stage_profile(manifest: Path) -> list[dict]:
     # functions, so a public function and the private one it wraps are not counted twice.
     wanted = {
         "read (Study.read: CSV -> Trial)": ("manifest.py", ("read",)),
-        "  pandas read_csv + column checks": ("readers.py", ("_load_table",)),
+        "  pandas read_csv + column checks": ("tables.py", ("load_table",)),
         "  make_trial (xarray Dataset, checks)": ("trial.py", ("make_trial",)),
         "fit_gravity (quasi-static)": ("gravity.py", ("fit_gravity",)),
         "estimate_inertia (fast)": ("inertia.py", ("estimate_inertia", "_estimate")),
@@ -72,8 +72,8 @@ def stage_profile(manifest: Path) -> list[dict]:
 
 
 def run(*, quick: bool = False, seed: int = 7) -> dict:
+    from inertiafit.processing.study import process_study
     from inertiafit.simulate import paper_study
-    from inertiafit.study import process_study
 
     repeats = 3 if quick else 7
     with tempfile.TemporaryDirectory(prefix="inertiafit-bench-") as tmp:

@@ -20,12 +20,13 @@ import numpy as np
 from arviz_stats import ess
 from common import QUANTITIES, accuracy, standalone, table
 
-from inertiafit.inference import fit
-from inertiafit.model import Condition, Model
-from inertiafit.observations import Observation
-from inertiafit.priors import Prior, load_prior
-from inertiafit.reference import reference_posterior
-from inertiafit.sampler import SamplerSettings
+from inertiafit.inference.fit import fit
+from inertiafit.inference.model import Condition, Model
+from inertiafit.inference.observations import Observation
+from inertiafit.inference.priors import Prior, load_prior
+from inertiafit.inference.reference import reference_posterior
+from inertiafit.inference.sampler import SamplerSettings
+from inertiafit.physics import inertia
 
 G = 9.81
 
@@ -56,7 +57,7 @@ def derived(m, x, rho) -> dict:
         "mass": m,
         "com_distance": x,
         "radius_of_gyration": rho,
-        "inertia": m * (rho**2 + x**2),
+        "inertia": inertia(m, rho, x),
         "gravity_moment": G * m * x,
     }
 
@@ -68,7 +69,7 @@ def plain_emcee(prior, obs_i, obs_g, seed, n_steps):
     def log_prob(p):
         m, x, rho = p[:, 0], p[:, 1], p[:, 2]
         inside = np.all((p >= lo) & (p <= hi), axis=1)
-        lp = obs_i.logpdf(m * (rho**2 + x**2)) + obs_g.logpdf(G * m * x)
+        lp = obs_i.logpdf(inertia(m, rho, x)) + obs_g.logpdf(G * m * x)
         return np.where(inside, lp, -np.inf)
 
     rng = np.random.default_rng(seed)

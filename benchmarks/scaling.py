@@ -4,7 +4,7 @@ Studies come from ``simulate_study``: conditions "attachment alone" and "attachm
 k" for each k, one quasi-static trial (at 4 deg/s, so it is 22 s long) and five fast trials
 at 240 deg/s per condition, 1 kHz. Each segment's truth is drawn at random and its prior box
 (+-50 %) is centred on the truth scaled by a random factor in [0.85, 1.15], so the prior is not
-the answer. Timed: the two stages of ``inertiafit.study.analyse_study`` that scale with K, run
+the answer. Timed: the two stages of ``inertiafit.pipeline.study.analyse_study`` that scale with K, run
 the same way — ``process_study`` and ``fit`` (start, sampling, convergence checks, DataTree) —
 with the sampler's defaults (``moves="auto"`` picks the blocked sampler for these studies).
 For K <= 5 the joint emcee sampler (``moves="independent"``) runs on the same evidence too,
@@ -70,8 +70,9 @@ def segment_study(folder: Path, k: int, seed: int) -> Path:
 
 def timed_stages(manifest: Path, seed: int, settings) -> tuple[dict, object, object, object]:
     """process_study + fit as analyse_study runs them, each timed."""
-    from inertiafit.inference import fit
-    from inertiafit.study import process_study, study_model
+    from inertiafit.inference.evidence import study_model
+    from inertiafit.inference.fit import fit
+    from inertiafit.processing.study import process_study
 
     t0 = time.perf_counter()
     processed = process_study(manifest)
@@ -92,7 +93,7 @@ def timed_stages(manifest: Path, seed: int, settings) -> tuple[dict, object, obj
 
 def fit_again(model, seed: int, settings) -> tuple[dict, object]:
     """Only the fit, on a model already built (another sampler on the same evidence)."""
-    from inertiafit.inference import fit
+    from inertiafit.inference.fit import fit
 
     t0 = time.perf_counter()
     with warnings.catch_warnings():
@@ -104,7 +105,7 @@ def fit_again(model, seed: int, settings) -> tuple[dict, object]:
 
 def exact_errors(post, model) -> tuple[float, float]:
     """Largest |mean error| (SDs) and |SD ratio - 1| of the identified pair, over all bodies."""
-    from inertiafit.reference import star_reference
+    from inertiafit.inference.reference import star_reference
 
     ref = star_reference(model, n_grid=200)
     worst_mean, worst_sd = 0.0, 0.0
@@ -118,7 +119,7 @@ def exact_errors(post, model) -> tuple[float, float]:
 
 def timed_analysis(manifest: Path, seed: int) -> tuple[dict, object]:
     """The whole analyse_study (defaults), with processing split off by its progress lines."""
-    from inertiafit.study import analyse_study
+    from inertiafit.pipeline.study import analyse_study
 
     marks: dict[str, float] = {}
 
@@ -146,7 +147,7 @@ def hdi_coverage(post, truth_file: Path) -> tuple[float, int, bool, float]:
 
 
 def run(*, quick: bool = False, seed: int = 5, joint_max_steps: int | None = None) -> dict:
-    from inertiafit.sampler import SamplerSettings
+    from inertiafit.inference.sampler import SamplerSettings
     from inertiafit.simulate import paper_study
 
     ks = (1, 5, 20) if quick else (1, 5, 20, 50)

@@ -5,7 +5,7 @@ Reproduce the paper from a simulated study
 The same experiment as Son et al., from trial files: :func:`inertiafit.simulate.paper_study`
 writes 62 trials at 1 kHz (the attachment alone and with the 3 kg disk; one quasi-static trial
 at 1 °/s and ten fast trials at each of 240, 270 and 300 °/s per condition) and their
-``study.toml``, with a known truth. :func:`inertiafit.study.analyse_study` then runs the whole
+``study.toml``, with a known truth. :func:`inertiafit.pipeline.study.analyse_study` then runs the whole
 pipeline: gravity fit, acceleration windows, per-trial inertia, speed effect (the paper's
 Fig. 5 and its ANOVA) and the joint posterior of both bodies, beside the paper's estimator
 (its Tables 2 and 3).
@@ -14,10 +14,11 @@ Fig. 5 and its ANOVA) and the joint posterior of both bodies, beside the paper's
 import tomllib
 from pathlib import Path
 
-from inertiafit import plots, tables
+from inertiafit.pipeline.study import analyse_study
+from inertiafit.report import plots, tables
+from inertiafit.report.result import traces_by_condition
 from inertiafit.shapes import solid_disk, square_tube
 from inertiafit.simulate import paper_study
-from inertiafit.study import analyse_study
 
 OUT = Path("examples-output") / "simulated-study"
 
@@ -69,7 +70,8 @@ print(tables.speed_effect_display(result.speed_effect).to_string(index=False))
 # %%
 # The acceleration windows the inertia comes from (cf. the paper's Fig. 4):
 
-fig4 = plots.plot_fast_trials(result.traces["attachment"][:5], title="attachment, 5 trials")
+traces = traces_by_condition(result.traces)  # one dict per fast trial, per condition
+fig4 = plots.plot_fast_trials(traces["attachment"][:5], title="attachment, 5 trials")
 fig4.savefig(OUT / "fast-trials-attachment.png", dpi=120)
 
 # %%

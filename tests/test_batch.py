@@ -14,10 +14,10 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from inertiafit.batch import BATCH_COLUMNS, StudyTask, run_many, run_one, study_names
 from inertiafit.cli import main
-from inertiafit.outputs import MARKER
-from inertiafit.result import SUMMARY_COLUMNS
+from inertiafit.io.outputs import MARKER
+from inertiafit.pipeline.batch import BATCH_COLUMNS, StudyTask, run_many, run_one, study_names
+from inertiafit.posterior import SUMMARY_COLUMNS
 from inertiafit.simulate import Noise, simulate_study
 
 #: Two small one-body studies with different truths (kg, m, m): 10 trials each.
@@ -156,7 +156,7 @@ def test_a_study_folder_is_what_run_writes(serial, studies, tmp_path):
     """Same seed, same files as `inertiafit run` (with one BLAS thread, as run-many uses)."""
     from threadpoolctl import threadpool_limits
 
-    from inertiafit.study import run_study
+    from inertiafit.pipeline.study import run_study
 
     with threadpool_limits(limits=1):
         run_study(
@@ -297,7 +297,7 @@ def test_unreachable_scheduler_is_one_line_exit_2(studies, tmp_path, capsys):
     argv = ["run-many", str(studies[0]), "--out", str(out), "--connect-timeout", "1"]
     line = _one_line_exit_2([*argv, "--scheduler", addr], capsys, out)
     assert time.perf_counter() - t0 < 20
-    assert line.startswith(f"inertiafit: error: --scheduler {addr}: cannot connect (")
+    assert line.startswith(f"inertiafit: error: --scheduler: {addr}: cannot connect (")
     assert line.endswith(
         "expected the address of a running Dask scheduler, e.g. "
         "tcp://host:8786 as printed by 'dask scheduler'"
@@ -308,7 +308,7 @@ def test_unreachable_scheduler_is_one_line_exit_2(studies, tmp_path, capsys):
         out,
     )
     assert (
-        "--scheduler nonsense: cannot connect (missing port number in address 'nonsense')" in line
+        "--scheduler: nonsense: cannot connect (missing port number in address 'nonsense')" in line
     )
 
 
@@ -350,12 +350,12 @@ def test_out_that_may_not_be_replaced_is_refused(studies, tmp_path, capsys):
 
 
 def test_an_unexpected_error_is_recorded_with_its_traceback(studies, tmp_path, monkeypatch):
-    import inertiafit.study
+    import inertiafit.pipeline.batch
 
     def boom(*_args, **_kwargs):
         raise RuntimeError("boom\nsecond line")
 
-    monkeypatch.setattr(inertiafit.study, "run_study", boom)
+    monkeypatch.setattr(inertiafit.pipeline.batch, "run_study", boom)
     result, _ = _batch([studies[0]], tmp_path / "out", workers=1)
     row = result.table.iloc[0]
     assert (row["status"], row["error"], row["folder"]) == (
@@ -390,7 +390,7 @@ def test_study_names_are_unique_and_readable(tmp_path):
 
 def test_importing_the_command_line_and_batch_does_not_import_dask():
     code = (
-        "import sys, inertiafit.cli, inertiafit.batch; "
+        "import sys, inertiafit.cli, inertiafit.pipeline.batch; "
         "print(sorted(m for m in ('dask', 'distributed') if m in sys.modules))"
     )
     out = subprocess.run(

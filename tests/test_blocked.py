@@ -4,14 +4,16 @@ against the exact star-model quadrature (and the joint sampler against the same 
 import numpy as np
 import pytest
 
-from inertiafit.blocked import BlockedGibbs, star_structure
 from inertiafit.errors import InputError
-from inertiafit.inference import fit
-from inertiafit.model import Condition, Model
-from inertiafit.observations import Observation
-from inertiafit.priors import Prior
-from inertiafit.reference import reference_posterior, star_reference
-from inertiafit.sampler import SamplerSettings, _laplace, _proposal_df, resolve_moves
+from inertiafit.inference.blocked import BlockedGibbs, star_structure
+from inertiafit.inference.fit import fit
+from inertiafit.inference.model import Condition, Model
+from inertiafit.inference.moves import laplace_fit, proposal_df
+from inertiafit.inference.observations import Observation
+from inertiafit.inference.priors import Prior
+from inertiafit.inference.reference import reference_posterior, star_reference
+from inertiafit.inference.sampler import SamplerSettings, resolve_moves
+from inertiafit.physics import inertia
 
 G = 9.81
 
@@ -31,7 +33,7 @@ def segments_model(k, *, seed=0, n_trials=10, inflate=None):
         priors[name] = Prior.box(
             name, mass=m * f[0], radius_of_gyration=rho * f[1], com_distance=x * f[2]
         )
-    ab = {n: (m * x, m * (rho * rho + x * x)) for n, (m, rho, x) in truth.items()}
+    ab = {n: (m * x, float(inertia(m, rho, x))) for n, (m, rho, x) in truth.items()}
     conditions = []
     for names in [("attachment",)] + [("attachment", n) for n in list(truth)[1:]]:
         a = sum(ab[n][0] for n in names)
@@ -199,8 +201,8 @@ def far_tail_chains(model, joint_step: bool, sweeps: int = 60):
     """Chains started with the attachment's inertia 8 SDs out; where are they after a while?"""
     star = star_structure(model)
     shared = BlockedGibbs.shared_submodel(model, star)
-    mode, cov = _laplace(shared, np.random.default_rng(0))
-    gibbs = BlockedGibbs(model, star, mode, cov, _proposal_df(shared))
+    mode, cov = laplace_fit(shared, np.random.default_rng(0))
+    gibbs = BlockedGibbs(model, star, mode, cov, proposal_df(shared))
     if not joint_step:
         gibbs._shared_step_leaves_fixed = lambda s, ta, tb, random: (s, ta, tb)
     random = np.random.default_rng(1)

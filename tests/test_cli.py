@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from inertiafit.cli import main
-from inertiafit.result import SUMMARY_COLUMNS, open_posterior
+from inertiafit.posterior import SUMMARY_COLUMNS, open_posterior
 
 DISK = [
     "fit",
@@ -129,7 +129,7 @@ def _with(**changes):
         (_with(prior="no-such-prior"), "no such shipped prior"),
         (_with(inertia="abc"), "--inertia: expected a number, got 'abc'"),
         (_with(inertia="-0.5"), "--inertia.*positive"),
-        (_with(inertia_se="0"), "--inertia standard error: expected a positive"),
+        (_with(inertia_se="0"), "--inertia-se: expected a positive finite number, got 0.0"),
         (_with(gravity_moment_se=None), "--gravity-moment: one value needs its standard error"),
         (_with(inertia_se=None, inertia_n="30"), "--inertia-sd and --inertia-n go together"),
         (_with(hdi_prob="1.5"), r"--hdi-prob: expected a probability in \(0, 1\)"),
@@ -198,3 +198,22 @@ def test_run_rejects_unknown_figure_formats_before_doing_anything(tmp_path, caps
     )
     assert "--formats" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("library", "shown"),
+    [
+        ("hdi_prob: expected a probability in (0, 1), got 2", "--hdi-prob: expected"),
+        ("inertia_sd and inertia_n go together; give both", "--inertia-sd and --inertia-n go"),
+        ("inertia[1]: expected a positive finite number", "--inertia[1]: expected"),
+        ("out: folder x exists", "--out: folder x exists"),
+        ("gravity_moment: one value needs its standard error", "--gravity-moment: one value"),
+        # prose and file names stay as they are
+        ("the prior box contains no solution", "the prior box contains no solution"),
+        ("study.toml: trials[0].file: not found", "study.toml: trials[0].file: not found"),
+    ],
+)
+def test_library_argument_names_are_shown_as_options(library, shown):
+    from inertiafit.cli import _as_options, build_parser
+
+    assert _as_options(library, build_parser()).startswith(shown)

@@ -7,7 +7,7 @@ import xarray as xr
 
 from inertiafit.errors import InputError
 from inertiafit.io import available_formats, read_trial, reader_options, register_reader
-from inertiafit.io.readers import _READERS
+from inertiafit.io.readers.registry import READERS
 from inertiafit.io.trial import make_trial
 
 DATA = Path(__file__).parent / "data"
@@ -467,4 +467,4 @@ def test_a_new_format_is_one_function_and_one_registration(tmp_path):
         assert trial.attrs["sampling_rate"] == 10.0
         assert "twocol" in available_formats()
     finally:
-        del _READERS["twocol"]
+        del READERS["twocol"]

@@ -2,10 +2,16 @@ import numpy as np
 import pytest
 
 from inertiafit.errors import InputError
-from inertiafit.model import Condition, Model, draw_angles, feasible_angles, feasible_measure
-from inertiafit.observations import Observation
-from inertiafit.physics import parameters_from_identified
-from inertiafit.priors import load_prior
+from inertiafit.inference.model import (
+    Condition,
+    Model,
+    draw_angles,
+    feasible_angles,
+    feasible_measure,
+)
+from inertiafit.inference.observations import Observation
+from inertiafit.inference.priors import load_prior
+from inertiafit.physics import inertia, parameters_from_identified
 
 
 @pytest.mark.parametrize("name", ["biodex-elbow-attachment", "disk-3kg"])
@@ -16,7 +22,7 @@ def test_measure_of_the_feasible_angles_is_the_prior_density_of_a_and_I(name):
     rng = np.random.default_rng(1)
     d = p.sample(2_000_000, rng)
     a = d["mass"] * d["com_distance"]
-    b = d["mass"] * (d["radius_of_gyration"] ** 2 + d["com_distance"] ** 2)
+    b = inertia(d["mass"], d["radius_of_gyration"], d["com_distance"])
     nb, sub = 20, 32  # fine sub-grid: the density has square-root edges
     hist, ae, be = np.histogram2d(a, b, bins=nb)
     vol = np.prod(p.bounds[:, 1] - p.bounds[:, 0])
@@ -45,7 +51,7 @@ def test_angle_draws_stay_in_the_box_and_cover_it():
     m, x, rho = parameters_from_identified(a, b, psi)
     assert p.contains(m, x, rho).all()
     np.testing.assert_allclose(m * x, a)
-    np.testing.assert_allclose(m * (rho**2 + x**2), b)
+    np.testing.assert_allclose(inertia(m, rho, x), b)
     lo1, hi1, lo2, hi2 = (float(v) for v in feasible_angles(0.756, 0.216, p))
     # the draws fill the feasible angles uniformly
     lengths = max(hi1 - lo1, 0) + max(hi2 - lo2, 0)

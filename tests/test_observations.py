@@ -5,7 +5,8 @@ import pytest
 from scipy import stats
 
 from inertiafit.errors import InputError
-from inertiafit.observations import Observation
+from inertiafit.inference.observations import Observation
+from inertiafit.stats import student_t_draws, student_t_logpdf
 
 
 def test_repeated_values_give_the_marginal_student_t():
@@ -54,3 +55,35 @@ def test_single_value_with_se_is_gaussian():
 def test_bad_observations(call, match):
     with pytest.raises(InputError, match=match):
         call()
+
+
+def test_student_t_logpdf_evaluates_many_distributions_at_once():
+    # Column i of x under distribution i; a Gaussian where df is infinite.
+    center = np.array([0.2, 7.4, 1.0])
+    scale = np.array([0.01, 0.05, 0.3])
+    df = np.array([4.0, math.inf, 29.0])
+    x = center + scale * np.random.default_rng(5).normal(0, 2, (6, 3))
+    got = student_t_logpdf(x, center, scale, df)
+    expect = np.column_stack(
+        [
+            stats.t.logpdf(x[:, 0], 4, center[0], scale[0]),
+            stats.norm.logpdf(x[:, 1], center[1], scale[1]),
+            stats.t.logpdf(x[:, 2], 29, center[2], scale[2]),
+        ]
+    )
+    np.testing.assert_allclose(got, expect, rtol=1e-12)
+    # Unnormalised: the same up to one constant per column.
+    kernel = student_t_logpdf(x, center, scale, df, normalised=False)
+    np.testing.assert_allclose(np.ptp(got - kernel, axis=0), 0, atol=1e-12)
+    # An Observation's likelihood is the same density, digit for digit.
+    for i in range(3):
+        obs = Observation(center[i], scale[i], df[i], 5)
+        np.testing.assert_array_equal(obs.logpdf(x[:, i]), got[:, i])
+
+
+def test_student_t_draws_follow_their_distributions():
+    center, scale, df = np.array([0.2, 7.4]), np.array([0.01, 0.05]), np.array([3.0, math.inf])
+    x = student_t_draws(center, scale, df, (20_000,), np.random.default_rng(6))
+    assert x.shape == (20_000, 2)
+    assert stats.kstest(x[:, 0], stats.t(3, center[0], scale[0]).cdf).pvalue > 1e-3
+    assert stats.kstest(x[:, 1], stats.norm(center[1], scale[1]).cdf).pvalue > 1e-3

@@ -24,10 +24,12 @@ from matplotlib.patches import Rectangle
 from matplotlib.testing.compare import compare_images
 from scipy.stats import norm
 
-from inertiafit import plots
 from inertiafit.baseline import curve_mass_intervals, paper_baseline
-from inertiafit.physics import PARAMETERS
-from inertiafit.result import REPORTED, Posterior
+from inertiafit.errors import InputError
+from inertiafit.physics import PARAMETERS, REPORTED
+from inertiafit.plotting import raster
+from inertiafit.posterior import Posterior
+from inertiafit.report import plots
 
 BASELINES = Path(__file__).parent / "baseline_images"
 UPDATE = os.environ.get("INERTIAFIT_UPDATE_BASELINES") == "1"
@@ -289,7 +291,7 @@ def test_dropping_the_hidden_draws_leaves_the_corner_picture_unchanged(
     fig = posterior.corner("attachment", truths=TRUTHS)
     kept = draws(fig)
     (dropped,) = plots.save_figure(fig, tmp_path / "dropped", formats=("png",), dpi=100)
-    monkeypatch.setattr(plots, "_drop_hidden_points", lambda ax: None)
+    monkeypatch.setattr(raster, "drop_hidden_points", lambda ax: None)
     fig = posterior.corner("attachment", truths=TRUTHS)
     (every,) = plots.save_figure(fig, tmp_path / "every", formats=("png",), dpi=100)
     assert kept < draws(fig) / 2
@@ -409,6 +411,21 @@ def test_save_figure_writes_vector_and_raster(posterior, tmp_path):
     assert again[0].read_bytes() == paths[0].read_bytes()  # no dates: same bytes
     with pytest.raises(ValueError, match="formats"):
         plots.save_figure(fig, tmp_path / "x", formats=("jpg",))
+
+
+def test_one_check_of_figure_formats(posterior, tmp_path):
+    assert plots.FIGURE_FORMATS == ("pdf", "png", "svg")
+    assert plots.check_formats([" PDF", "png", ""]) == ("pdf", "png")
+    assert plots.check_formats("svg,png") == ("svg", "png")
+    message = r"^formats: expected a comma-separated subset of pdf,png,svg, got "
+    for bad in (["jpg"], [], ["", " "], "pdf,gif"):
+        with pytest.raises(InputError, match=message):
+            plots.check_formats(bad)
+    with pytest.raises(InputError, match=r"^--formats: .* got 'png,gif'$"):
+        plots.check_formats(["png", "gif"], where="--formats")
+    with pytest.raises(InputError, match=message):  # save_figure checks through it too
+        plots.save_figure(plots.plot_rank(posterior, "weight"), tmp_path / "x", formats=("gif",))
+    assert not list(tmp_path.iterdir())
 
 
 def test_save_figure_restores_the_layout_engine(posterior, tmp_path):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from inertiafit.errors import InputError
-from inertiafit.priors import Prior, available_priors, load_prior
+from inertiafit.inference.priors import Prior, available_priors, load_prior
 
 
 def test_shipped_priors_have_the_papers_ideal_bodies():

@@ -1,9 +1,10 @@
 import numpy as np
 import pytest
 
-from inertiafit.observations import Observation
-from inertiafit.priors import load_prior
-from inertiafit.reference import reference_posterior
+from inertiafit.inference.observations import Observation
+from inertiafit.inference.priors import load_prior
+from inertiafit.inference.reference import reference_posterior
+from inertiafit.physics import inertia
 
 ATTACHMENT = (
     "biodex-elbow-attachment",
@@ -16,7 +17,7 @@ def brute_force(prior, obs_i, obs_g, n=150, gravity=9.81):
     """Posterior means on a plain grid over the (m, x, rho) box: slow but independent."""
     axes = [np.linspace(*prior.bounds[k], n) for k in range(3)]
     m, x, rho = np.meshgrid(*axes, indexing="ij")
-    log_l = obs_i.logpdf(m * (rho**2 + x**2)) + obs_g.logpdf(gravity * m * x)
+    log_l = obs_i.logpdf(inertia(m, rho, x)) + obs_g.logpdf(gravity * m * x)
     w = np.exp(log_l - log_l.max())
     w /= w.sum()
     return {

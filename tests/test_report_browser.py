@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from inertiafit.commands import run_fit
+from inertiafit.pipeline.fit import run_fit
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = [
@@ -38,7 +38,7 @@ def chromium(*args, tmp_path):
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    from inertiafit.rendering import redraw
+    from inertiafit.pipeline.redraw import redraw
 
     out = tmp_path_factory.mktemp("fit") / "out"
     run_fit(

@@ -1,14 +1,15 @@
 """inertiafit report: redraw tables, figures and report.html from saved results."""
 
 import re
+import shutil
 
 import pandas as pd
 import pytest
 
 from inertiafit.cli import main
-from inertiafit.result import SUMMARY_COLUMNS, open_posterior
+from inertiafit.posterior import SUMMARY_COLUMNS, open_posterior
+from inertiafit.processing.study import TRIAL_COLUMNS
 from inertiafit.simulate import simulate_study
-from inertiafit.study import TRIAL_COLUMNS
 
 TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
 PRIORS = {
@@ -99,6 +100,41 @@ def test_report_redraws_without_sampling(study_out, capsys):
     html = (study_out / "report.html").read_text()
     assert "80% HDI" in html
     assert "redrew" in capsys.readouterr().out
+
+
+def test_report_redraws_from_saved_outputs_only(study_out, tmp_path):
+    # the trial files are gone and the folder has moved: nothing but the outputs is read
+    moved = tmp_path / "moved"
+    shutil.copytree(study_out, moved)
+    trials_dir = study_out.parent / "study"
+    hidden = trials_dir.rename(study_out.parent / "study-hidden")
+    try:
+        trials_csv = (moved / "trials.csv").read_bytes()
+        traces_csv = (moved / "traces.csv").read_bytes()
+        for stale in moved.glob("fast-trials-*.png"):
+            stale.unlink()
+        assert main(["report", str(moved), "--formats", "png"]) == 0
+        assert sorted(p.name for p in moved.glob("fast-trials-*.png")) == [
+            "fast-trials-attachment+weight.png",
+            "fast-trials-attachment.png",
+        ]
+        assert (moved / "trials.csv").read_bytes() == trials_csv  # data files are read only
+        assert (moved / "traces.csv").read_bytes() == traces_csv
+        assert "Trial traces not drawn" not in (moved / "report.html").read_text()
+        traces = pd.read_csv(moved / "traces.csv")
+        assert traces.groupby("condition")["trial"].nunique().to_dict() == {
+            "attachment": 6,
+            "attachment+weight": 6,
+        }
+        # a folder without traces.csv is redrawn without the fast-trial figures, and says so
+        (moved / "traces.csv").unlink()
+        for stale in moved.glob("fast-trials-*.png"):
+            stale.unlink()
+        assert main(["report", str(moved), "--formats", "png"]) == 0
+        assert not list(moved.glob("fast-trials-*.png"))
+        assert "Trial traces not drawn" in (moved / "report.html").read_text()
+    finally:
+        hidden.rename(trials_dir)
 
 
 def test_report_without_png_files_still_embeds_every_figure(study_out):

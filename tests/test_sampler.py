@@ -4,12 +4,12 @@ fixed seeds, tolerances from Monte Carlo error, and a negative control that must
 import numpy as np
 import pytest
 
-from inertiafit.inference import fit, fit_body
-from inertiafit.model import Condition, Model
-from inertiafit.observations import Observation
-from inertiafit.priors import Prior, load_prior
-from inertiafit.reference import reference_posterior
-from inertiafit.sampler import SamplerSettings
+from inertiafit.inference.fit import fit, fit_body
+from inertiafit.inference.model import Condition, Model
+from inertiafit.inference.observations import Observation
+from inertiafit.inference.priors import Prior, load_prior
+from inertiafit.inference.reference import reference_posterior
+from inertiafit.inference.sampler import SamplerSettings
 
 QUANTITIES = ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment")
 TRIALS = np.random.default_rng(11).normal(0.2157, 0.0167, 10)

@@ -10,8 +10,9 @@ import pytest
 
 from inertiafit.cli import main
 from inertiafit.errors import InputError
+from inertiafit.pipeline.study import analyse_study
+from inertiafit.processing.study import TRACE_COLUMNS, process_study
 from inertiafit.simulate import simulate_study
-from inertiafit.study import analyse_study, process_study
 
 TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
 PRIORS = {
@@ -192,7 +193,9 @@ def test_bad_study_input_is_one_line_exit_2_and_leaves_nothing(
 def test_process_study_can_be_used_alone(small_study):
     processed = process_study(small_study / "study.toml")
     assert set(processed.gravity) == {"attachment", "attachment+weight"}
-    assert len(processed.traces["attachment"]) == 3
+    traces = processed.traces
+    assert list(traces.columns) == TRACE_COLUMNS
+    assert traces[traces.condition == "attachment"]["trial"].nunique() == 3
     with pytest.raises(InputError, match="not found"):
         process_study(small_study / "nope.toml")
 
@@ -249,7 +252,7 @@ def test_one_attachment_several_segments_share_its_uncertainty(tmp_path):
 
 
 def test_several_quasi_static_trials_combine_by_inverse_variance():
-    from inertiafit.study import condition_gravity
+    from inertiafit.processing.study import condition_gravity
 
     rows = pd.DataFrame(
         {

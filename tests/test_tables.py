@@ -1,6 +1,6 @@
 import pandas as pd
 
-from inertiafit.tables import (
+from inertiafit.report.tables import (
     comparison_display,
     fmt,
     summary_display,

@@ -3,7 +3,7 @@
 - ``.. inertiafit-cli::`` writes the command-line reference from
   :func:`inertiafit.cli.build_parser`, so the reference cannot drift from ``--help``.
 - ``.. inertiafit-priors::`` writes the table of shipped priors from
-  :func:`inertiafit.priors.available_priors`.
+  :func:`inertiafit.inference.priors.available_priors`.
 - :func:`figure_scraper` lets sphinx-gallery show the matplotlib ``Figure`` objects an example
   holds (the examples never use pyplot, so the default scraper would find nothing).
 """
@@ -133,8 +133,8 @@ def _fmt(value: float) -> str:
 
 def priors_table_rst() -> list[str]:
     """A list-table of the shipped priors: name, body, box per parameter, source, reference."""
+    from inertiafit.inference.priors import available_priors, load_prior
     from inertiafit.physics import PARAMETERS, UNITS
-    from inertiafit.priors import available_priors, load_prior
 
     lines = [
         ".. list-table::",
@@ -176,7 +176,7 @@ class PriorsTable(SphinxDirective):
         """Parse the generated table into the page."""
         container = nodes.container()
         self.state.nested_parse(
-            StringList(priors_table_rst(), source="inertiafit.priors"), 0, container
+            StringList(priors_table_rst(), source="inertiafit.inference.priors"), 0, container
         )
         return container.children
 

@@ -7,10 +7,14 @@ stderr (``inertiafit: error: ...``) and exit status 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
+from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
+
+__all__ = ["build_parser", "main"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -244,7 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _fit(args) -> int:
-    from inertiafit.commands import run_fit
+    from inertiafit.pipeline.fit import run_fit
 
     if args.gravity <= 0:
         raise InputError(f"--gravity: expected a positive number, got {args.gravity}")
@@ -267,8 +271,8 @@ def _fit(args) -> int:
 
 
 def _run(args) -> int:
-    from inertiafit.rendering import check_formats
-    from inertiafit.study import run_study
+    from inertiafit.pipeline.study import run_study
+    from inertiafit.plotting.style import check_formats
 
     formats = check_formats(args.formats.split(","))
     run_study(args.study, out=args.out, seed=args.seed, hdi_prob=args.hdi_prob, formats=formats)
@@ -276,8 +280,8 @@ def _run(args) -> int:
 
 
 def _run_many(args) -> int:
-    from inertiafit.batch import run_many
-    from inertiafit.rendering import check_formats
+    from inertiafit.pipeline.batch import run_many
+    from inertiafit.plotting.style import check_formats
 
     if not args.connect_timeout > 0:
         raise InputError(
@@ -309,25 +313,53 @@ def _run_many(args) -> int:
 
 
 def _report(args) -> int:
-    from inertiafit.rendering import redraw
+    from inertiafit.pipeline.redraw import redraw
 
     redraw(args.folder, formats=args.formats.split(","), hdi_prob=args.hdi_prob)
     return 0
 
 
 def _demo(args) -> int:
-    from inertiafit.commands import run_demo
+    from inertiafit.pipeline.demo import run_demo
 
     run_demo(out=args.out, seed=args.seed, hdi_prob=args.hdi_prob)
     return 0
 
 
 def _priors(_args) -> int:
-    from inertiafit.priors import available_priors, load_prior
+    from inertiafit.inference.priors import available_priors, load_prior
 
     for name in available_priors():
         print(load_prior(name).describe())
     return 0
+
+
+def _as_options(message: str, parser: argparse.ArgumentParser) -> str:
+    """A library message in the command line's words: argument names become option names.
+
+    Library functions name their arguments (``hdi_prob: expected ...``, ``inertia_sd and
+    inertia_n go together``); here they read ``--hdi-prob``, ``--inertia-sd``. A name with an
+    underscore is replaced anywhere; a plain word (``out``, ``inertia``) only where it leads
+    the message as its subject (``out: ...``, ``inertia[0]: ...``), so prose is left alone.
+    """
+    dests: set[str] = set()
+    for action in parser._actions:  # argparse keeps its subparsers only here
+        choices = getattr(action, "choices", None)
+        if isinstance(choices, dict):
+            for sub in choices.values():
+                dests.update(a.dest for a in sub._actions if a.option_strings and a.dest != "help")
+    names = sorted(dests, key=len, reverse=True)
+    compound = [n for n in names if "_" in n]
+    if compound:
+        message = re.sub(
+            r"(?<![\w-])(" + "|".join(map(re.escape, compound)) + r")(?![\w-])",
+            lambda m: "--" + m.group(1).replace("_", "-"),
+            message,
+        )
+    lead = re.match(r"(\w+)(?=[:\[])", message)
+    if lead and lead.group(1) in dests:
+        message = "--" + lead.group(1).replace("_", "-") + message[lead.end() :]
+    return message
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -343,11 +375,11 @@ def main(argv: list[str] | None = None) -> int:
         "priors": _priors,
     }
     try:
-        if hasattr(args, "hdi_prob") and not 0 < args.hdi_prob < 1:
-            raise InputError(f"--hdi-prob: expected a probability in (0, 1), got {args.hdi_prob}")
+        if hasattr(args, "hdi_prob"):
+            check_probability(args.hdi_prob, "hdi_prob")
         return handlers[args.command](args)
     except InputError as exc:
-        print(f"inertiafit: error: {exc}", file=sys.stderr)
+        print(f"inertiafit: error: {_as_options(str(exc), parser)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("inertiafit: interrupted", file=sys.stderr)

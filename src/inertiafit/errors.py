@@ -1,29 +1,38 @@
 """Exceptions and warnings raised by inertiafit.
 
 Every problem with a user's input is an :class:`InputError` whose message is one line naming
-the file (or option), the field and what was expected. The command line prints that line and
+the file (or argument), the field and what was expected. The command line prints that line and
 exits with status 2; library users can catch the exception.
+
+Every warning inertiafit issues is an :class:`InertiafitWarning`, so a caller can silence or
+collect inertiafit's warnings without catching every :class:`UserWarning`. Problems found in a
+single trial are not warnings: they travel as ``flags`` in the returned estimate (and as lines
+in a study's ``warnings``), one channel.
 """
 
 from __future__ import annotations
 
+__all__ = ["ConvergenceWarning", "InertiafitWarning", "InputError"]
+
 
 class InputError(ValueError):
-    """Bad input: a file, option or value that cannot be used as given.
+    """Bad input: a file, argument or value that cannot be used as given.
 
     Parameters
     ----------
     message : str
-        One line: where (file or option), which field, what was expected.
+        One line: where (file or argument), which field, what was expected. Library functions
+        name their own arguments (``hdi_prob``); the command line shows them as its options
+        (``--hdi-prob``).
     """
 
     def __init__(self, message: str) -> None:
         super().__init__(" ".join(str(message).split()))
 
 
-class ConvergenceWarning(UserWarning):
+class InertiafitWarning(UserWarning):
+    """Base class of every warning inertiafit issues."""
+
+
+class ConvergenceWarning(InertiafitWarning):
     """The sampler stopped at its step bound before every convergence criterion was met."""
-
-
-class TrialWarning(UserWarning):
-    """A trial was processed but something about it deserves a look (see its flags)."""

@@ -37,6 +37,35 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+__all__ = [
+    "ATTACHMENT_GEOMETRY",
+    "ATTACHMENT_INERTIA",
+    "ATTACHMENT_WITH_WEIGHT_INERTIA",
+    "BOX_SPREAD",
+    "GRAVITY",
+    "QUASI_STATIC_SPEED",
+    "SAMPLING_RATE",
+    "SIGNIFICANCE_LEVEL",
+    "SPEEDS",
+    "TABLE2_ESTIMATED",
+    "TABLE2_IDEAL",
+    "TABLE3_ESTIMATED",
+    "TABLE3_IDEAL",
+    "TRIALS_PER_SPEED",
+    "WEIGHT_GEOMETRY",
+    "WEIGHT_INERTIA",
+    "PooledSummary",
+    "SpeedSummary",
+    "TableRow",
+    "anova_from_summary",
+    "implied_gravity_moment",
+    "pooled",
+    "solid_disk_radius_of_gyration",
+    "square_tube_radius_of_gyration",
+    "weight_inertia_by_subtraction",
+    "weight_inertia_standard_error",
+]
+
 #: Gravitational acceleration used throughout the paper (m/s^2), Section 2.1.
 GRAVITY = 9.81
 

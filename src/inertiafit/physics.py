@@ -10,6 +10,22 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+__all__ = [
+    "DERIVED",
+    "GRAVITY",
+    "LABELS",
+    "PARAMETERS",
+    "REPORTED",
+    "SYMBOLS",
+    "UNITS",
+    "curve_at_mass",
+    "gravity_moment",
+    "inertia",
+    "maximum_com_distance",
+    "minimum_mass",
+    "parameters_from_identified",
+]
+
 #: Standard gravity used by the paper (m/s^2); every function takes ``gravity=`` to change it.
 GRAVITY = 9.81
 
@@ -17,6 +33,8 @@ GRAVITY = 9.81
 PARAMETERS = ("mass", "com_distance", "radius_of_gyration")
 #: Derived quantities reported beside the parameters.
 DERIVED = ("inertia", "gravity_moment")
+#: Every quantity a posterior reports, in table order.
+REPORTED = (*PARAMETERS, *DERIVED)
 UNITS = {
     "mass": "kg",
     "com_distance": "m",
@@ -64,6 +82,35 @@ def minimum_mass(inertia: ArrayLike, gravity_moment: ArrayLike, gravity: float =
 def maximum_com_distance(inertia: ArrayLike, gravity_moment: ArrayLike, gravity: float = GRAVITY):
     """Largest centre-of-mass distance consistent with ``I`` and ``M_g``: ``I g / M_g`` (m)."""
     return np.asarray(inertia) * gravity / np.asarray(gravity_moment)
+
+
+def curve_at_mass(
+    first_moment: ArrayLike, inertia: ArrayLike, mass: ArrayLike
+) -> tuple[NDArray, NDArray]:
+    """The identification curve at given masses: ``x = a / m``, ``rho = sqrt(I / m - x^2)``.
+
+    Rotation about one axis identifies only ``a = m x = M_g / g`` (kg m) and
+    ``I = m (rho^2 + x^2)`` (kg m^2); every body with those two values lies on this curve,
+    one body per mass. Below :func:`minimum_mass` (``rho^2 < 0``) ``rho`` is clipped to 0.
+
+    Parameters
+    ----------
+    first_moment : array_like
+        ``a = m x`` (kg m).
+    inertia : array_like
+        ``I`` (kg m^2), about the joint.
+    mass : array_like
+        ``m`` (kg), positive.
+
+    Returns
+    -------
+    com_distance, radius_of_gyration : ndarray
+        ``x`` (m) and ``rho`` (m) at each mass, broadcast together.
+    """
+    a, b, m = np.asarray(first_moment), np.asarray(inertia), np.asarray(mass)
+    x = a / m
+    rho = np.sqrt(np.clip(b / m - x * x, 0.0, None))
+    return x, rho
 
 
 def parameters_from_identified(

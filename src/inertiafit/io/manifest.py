@@ -51,6 +51,19 @@ from inertiafit.io.readers import (
 )
 from inertiafit.physics import GRAVITY
 
+__all__ = [
+    "BODY_KEYS",
+    "DEFAULT_KEYS",
+    "KINDS",
+    "TOP_KEYS",
+    "TRIAL_KEYS",
+    "BodySpec",
+    "Study",
+    "TrialSpec",
+    "load_study",
+    "read_trial_spec",
+]
+
 KINDS = ("quasi-static", "fast")
 TOP_KEYS = ("name", "description", "gravity", "bodies", "defaults", "trials")
 BODY_KEYS = ("prior", "ideal")
@@ -68,7 +81,7 @@ class BodySpec:
         The key under ``[bodies]``.
     prior : str or dict
         Raw prior: a shipped prior's name, a path, or an inline table; resolved elsewhere
-        (:func:`inertiafit.priors.load_prior`).
+        (:func:`inertiafit.inference.priors.load_prior`).
     ideal : dict or None
         Optional raw table of ideal-shape values to compare against.
     """

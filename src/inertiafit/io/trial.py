@@ -25,6 +25,12 @@ from numpy.typing import ArrayLike
 from inertiafit.errors import InputError
 from inertiafit.io.units import QUANTITIES, SI_UNITS
 
+__all__ = [
+    "GAP_FACTOR",
+    "MIN_SAMPLES",
+    "make_trial",
+]
+
 #: Fewest samples a trial may have; fewer cannot hold an acceleration window or a fit.
 MIN_SAMPLES = 10
 #: A time step longer than this multiple of the median step is a gap (lost samples).

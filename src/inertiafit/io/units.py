@@ -1,8 +1,12 @@
-"""Units of the four trial channels and their conversion to SI.
+"""The package's one table of units and their conversion to and from SI.
 
 Readers convert every channel to SI exactly once, here: time to s, angle to rad, angular
 velocity to rad/s and torque to N m. The accepted spellings are listed in ``ACCEPTED``; a unit
 outside them is an :class:`~inertiafit.errors.InputError` that lists them.
+
+Besides the four channels the table holds the units of prior files, ``mass`` (kg, g) and
+``length`` (m, cm, mm), which :mod:`inertiafit.inference.priors` reads through
+:func:`si_factors`; and the simulator writes its trial files with :func:`from_si`.
 """
 
 from __future__ import annotations
@@ -14,6 +18,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertiafit.errors import InputError
+
+__all__ = [
+    "ACCEPTED",
+    "DEG",
+    "FT_LBF",
+    "IN_LBF",
+    "QUANTITIES",
+    "SI_UNITS",
+    "canonical_unit",
+    "from_si",
+    "si_factors",
+    "to_si",
+    "unit_factor",
+]
 
 #: The four channels of a trial, in the order of the Trial's data variables (time first).
 QUANTITIES = ("time", "angle", "velocity", "torque")
@@ -28,15 +46,19 @@ FT_LBF = 1.3558179483314004
 #: Newton metres per inch pound-force.
 IN_LBF = FT_LBF / 12.0
 
-_DEG = math.pi / 180.0
+#: Radians per degree.
+DEG = math.pi / 180.0
 
-# Canonical spelling -> factor to SI, per channel. Aliases map onto canonical spellings after
-# normalisation (lower case, no spaces; "·", "-" and "." read as "*").
+# Canonical spelling -> factor to SI, per quantity: the four channels, then the mass and length
+# units of prior files. Aliases map onto canonical spellings after normalisation (lower case, no
+# spaces; "·", "-" and "." read as "*").
 _FACTORS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "ms": 1e-3},
-    "angle": {"deg": _DEG, "rad": 1.0},
-    "velocity": {"deg/s": _DEG, "rad/s": 1.0},
+    "angle": {"deg": DEG, "rad": 1.0},
+    "velocity": {"deg/s": DEG, "rad/s": 1.0},
     "torque": {"N*m": 1.0, "ft*lbf": FT_LBF, "in*lbf": IN_LBF},
+    "mass": {"kg": 1.0, "g": 1e-3},
+    "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
 }
 _ALIASES: dict[str, dict[str, str]] = {
     "time": {
@@ -83,9 +105,11 @@ _ALIASES: dict[str, dict[str, str]] = {
         "in*lbs": "in*lbf",
         "inch*pounds": "in*lbf",
     },
+    "mass": {"kg": "kg", "g": "g"},
+    "length": {"m": "m", "cm": "cm", "mm": "mm"},
 }
 
-#: Canonical accepted units per channel, for messages and documentation.
+#: Canonical accepted units per quantity, for messages and documentation.
 ACCEPTED = {q: tuple(table) for q, table in _FACTORS.items()}
 
 
@@ -96,13 +120,36 @@ def _normalise(unit: str) -> str:
     return "*".join(text.split())
 
 
-def canonical_unit(quantity: str, unit: object, *, where: str) -> str:
-    """Return the canonical spelling of ``unit`` for channel ``quantity``.
+def si_factors(quantity: str) -> dict[str, float]:
+    """Return the canonical spellings of ``quantity``'s units and their factors to SI.
 
     Parameters
     ----------
-    quantity : {"time", "angle", "velocity", "torque"}
-        The channel the unit belongs to.
+    quantity : {"time", "angle", "velocity", "torque", "mass", "length"}
+        A channel, or a quantity of a prior file.
+
+    Returns
+    -------
+    dict of str to float
+        Canonical spelling -> factor that converts a value in that unit to SI (a new dict, in
+        the order of ``ACCEPTED[quantity]``). For a caller that accepts the canonical
+        spellings only, without the aliases of :func:`canonical_unit`.
+
+    Raises
+    ------
+    KeyError
+        If ``quantity`` is not in the table.
+    """
+    return dict(_FACTORS[quantity])
+
+
+def canonical_unit(quantity: str, unit: object, *, where: str) -> str:
+    """Return the canonical spelling of ``unit`` for ``quantity``.
+
+    Parameters
+    ----------
+    quantity : {"time", "angle", "velocity", "torque", "mass", "length"}
+        The channel (or prior quantity) the unit belongs to.
     unit : str
         The unit as written by a user or a file, e.g. ``"ft-lb"`` or ``"N·m"``.
     where : str
@@ -120,7 +167,9 @@ def canonical_unit(quantity: str, unit: object, *, where: str) -> str:
         accepted units.
     """
     if quantity not in _FACTORS:
-        raise InputError(f"{where}: unknown channel {quantity!r} (channels: time, angle, ...)")
+        raise InputError(
+            f"{where}: unknown quantity {quantity!r} (quantities: {', '.join(_FACTORS)})"
+        )
     accepted = ", ".join(ACCEPTED[quantity])
     if not isinstance(unit, str):
         raise InputError(f"{where}: {quantity} unit must be a string, got {unit!r}")
@@ -138,8 +187,8 @@ def unit_factor(quantity: str, unit: object, *, where: str) -> float:
 
     Parameters
     ----------
-    quantity : {"time", "angle", "velocity", "torque"}
-        The channel.
+    quantity : {"time", "angle", "velocity", "torque", "mass", "length"}
+        The quantity.
     unit : str
         Any accepted spelling (see :func:`canonical_unit`).
     where : str
@@ -148,7 +197,7 @@ def unit_factor(quantity: str, unit: object, *, where: str) -> float:
     Returns
     -------
     float
-        Multiply values in ``unit`` by this to get s, rad, rad/s or N m.
+        Multiply values in ``unit`` by this to get s, rad, rad/s, N m, kg or m.
 
     Raises
     ------
@@ -159,14 +208,14 @@ def unit_factor(quantity: str, unit: object, *, where: str) -> float:
 
 
 def to_si(values: ArrayLike, quantity: str, unit: object, *, where: str) -> NDArray[np.float64]:
-    """Convert ``values`` of channel ``quantity`` from ``unit`` to SI (float64 array).
+    """Convert ``values`` of ``quantity`` from ``unit`` to SI (float64 array).
 
     Parameters
     ----------
     values : array_like
         Values in ``unit``.
-    quantity : {"time", "angle", "velocity", "torque"}
-        The channel.
+    quantity : {"time", "angle", "velocity", "torque", "mass", "length"}
+        The quantity.
     unit : str
         Any accepted spelling (see :func:`canonical_unit`).
     where : str
@@ -175,7 +224,7 @@ def to_si(values: ArrayLike, quantity: str, unit: object, *, where: str) -> NDAr
     Returns
     -------
     ndarray of float64
-        The values in s, rad, rad/s or N m.
+        The values in s, rad, rad/s, N m, kg or m.
 
     Raises
     ------
@@ -185,3 +234,33 @@ def to_si(values: ArrayLike, quantity: str, unit: object, *, where: str) -> NDAr
     factor = unit_factor(quantity, unit, where=where)
     out = np.asarray(values, dtype=np.float64)
     return out if factor == 1.0 else out * factor
+
+
+def from_si(values: ArrayLike, quantity: str, unit: object, *, where: str) -> NDArray[np.float64]:
+    """Convert ``values`` of ``quantity`` from SI to ``unit`` (float64 array); undoes to_si.
+
+    Parameters
+    ----------
+    values : array_like
+        Values in s, rad, rad/s, N m, kg or m.
+    quantity : {"time", "angle", "velocity", "torque", "mass", "length"}
+        The quantity.
+    unit : str
+        Any accepted spelling (see :func:`canonical_unit`).
+    where : str
+        ``"<file>: <field>"`` for the error message.
+
+    Returns
+    -------
+    ndarray of float64
+        The values in ``unit``: multiplied by ``1 / factor``, not divided by ``factor`` (the
+        two can differ in the last bit; the simulator's files are written this way).
+
+    Raises
+    ------
+    InputError
+        If the unit is not accepted.
+    """
+    factor = unit_factor(quantity, unit, where=where)
+    out = np.asarray(values, dtype=np.float64)
+    return out if factor == 1.0 else out * (1.0 / factor)

@@ -11,6 +11,10 @@ The steps, in the order a study runs them (``docs/processing.md`` explains each 
 4. :func:`estimate_inertia`: the inertia of a fast trial by least squares and by the paper's
    frame mean (:class:`InertiaEstimate`);
 5. :func:`speed_effect`: per-speed summaries, one-way ANOVA and Tukey HSD per condition.
+
+:func:`process_study` runs steps 1-4 over every trial of a study manifest
+(:class:`ProcessedStudy`: a row per trial, the gravity model per condition, the filtered traces).
+Problems found in a trial travel as ``flags`` in what these functions return, never as warnings.
 """
 
 from __future__ import annotations
@@ -25,12 +29,14 @@ from inertiafit.processing.gravity import (
 )
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.speed import speed_effect
+from inertiafit.processing.study import ProcessedStudy, process_study
 from inertiafit.processing.window import AccelerationWindow, find_window
 
 __all__ = [
     "AccelerationWindow",
     "GravityFit",
     "InertiaEstimate",
+    "ProcessedStudy",
     "effective_sample_size",
     "estimate_inertia",
     "find_window",
@@ -39,6 +45,7 @@ __all__ = [
     "integrated_autocorrelation_time",
     "lowpass",
     "lowpass_array",
+    "process_study",
     "sampling_rate",
     "speed_effect",
 ]

@@ -25,6 +25,18 @@ from scipy import signal
 
 from inertiafit.errors import InputError
 
+__all__ = [
+    "CUTOFF",
+    "MIN_PERIODS",
+    "ORDER",
+    "design",
+    "lowpass",
+    "lowpass_array",
+    "lowpass_arrays",
+    "sampling_rate",
+    "source_of",
+]
+
 #: Default cut-off (Hz) and design order of the low-pass filter.
 CUTOFF = 20.0
 ORDER = 2

@@ -4,7 +4,7 @@ A quasi-static move (1 deg/s) has no inertial torque worth the name, so its torq
 gravity model ``tau = M_g sin(theta + phi) + c``. Written as ``a sin(theta) + b cos(theta) + c``
 it is linear in ``(a, b, c)``; ordinary least squares over the whole move gives
 ``M_g = sqrt(a^2 + b^2)`` and ``phi = atan2(b, a)``. Fitting both sin and cos over a range
-replaces the one-angle weighing that can be off by tens of N m (``DOMAIN.md``).
+replaces the one-angle weighing that can be off by tens of N m (``docs/processing.md``).
 
 The standard errors are honest about autocorrelated residuals (drift, friction, hysteresis, the
 filter of the device): the OLS covariance is multiplied by the residuals' integrated
@@ -17,15 +17,28 @@ heteroskedasticity-and-autocorrelation-consistent variance to first order.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
-from inertiafit.errors import InputError, TrialWarning
+from inertiafit.errors import InputError
 from inertiafit.processing.filtering import source_of
+
+__all__ = [
+    "BATCHES",
+    "MAX_QUASI_STATIC_SPEED",
+    "MIN_RANGE",
+    "MIN_SAMPLES",
+    "REFUSE_RANGE",
+    "REFUSE_SPEED",
+    "GravityFit",
+    "effective_sample_size",
+    "fit_gravity",
+    "fit_gravity_arrays",
+    "integrated_autocorrelation_time",
+]
 
 #: Median speed (deg/s) above which a quasi-static trial is flagged as not quasi-static.
 MAX_QUASI_STATIC_SPEED = 5.0
@@ -73,7 +86,7 @@ class GravityFit:
     source : str
         The trial's file.
     flags : tuple of str
-        Problems worth a look (each also raised as a :class:`~inertiafit.errors.TrialWarning`).
+        Problems worth a look, one line each (a study lists them as ``"file: flag"``).
     """
 
     gravity_moment: float
@@ -245,7 +258,8 @@ def fit_gravity(
     Returns
     -------
     GravityFit
-        ``M_g``, ``phi``, ``c`` with honest standard errors, and flags.
+        ``M_g``, ``phi``, ``c`` with honest standard errors, and flags (not quasi-static,
+        small angle range, strongly autocorrelated residuals).
 
     Raises
     ------
@@ -253,11 +267,6 @@ def fit_gravity(
         If the trial is too short, sweeps less than :data:`REFUSE_RANGE` degrees, moves faster
         than :data:`REFUSE_SPEED` deg/s (95th percentile; a fast trial marked quasi-static), or
         ``torque_sign`` is not +-1.
-
-    Warns
-    -----
-    TrialWarning
-        For each flag: not quasi-static, small angle range, strongly autocorrelated residuals.
     """
     source = source_of(trial)
     if torque_sign not in (1, -1):
@@ -298,8 +307,6 @@ def fit_gravity(
             f"strongly autocorrelated residuals: only {n_eff:.3g} effective samples "
             "(standard errors themselves uncertain)"
         )
-    for flag in flags:
-        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=2)
     return GravityFit(
         gravity_moment=moment,
         gravity_moment_se=float(math.sqrt(g_m @ cov @ g_m)),

@@ -19,15 +19,14 @@ filtered torque and the acceleration derived from the filtered velocity see the 
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
 
-from inertiafit.errors import InputError, TrialWarning
+from inertiafit.errors import InputError
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
@@ -36,7 +35,15 @@ from inertiafit.processing.filtering import (
     source_of,
 )
 from inertiafit.processing.gravity import GravityFit, integrated_autocorrelation_time
-from inertiafit.processing.window import LEVEL, MIN_SPEED_CHANGE, TOLERANCE, _window
+from inertiafit.processing.window import LEVEL, MIN_SPEED_CHANGE, TOLERANCE, find_window_arrays
+
+__all__ = [
+    "NEGATIVE_SE",
+    "SATURATION_RUN",
+    "InertiaEstimate",
+    "estimate_inertia",
+    "saturated_run",
+]
 
 #: Identical samples at a channel's largest magnitude that count as saturation (clipping).
 SATURATION_RUN = 5
@@ -65,9 +72,12 @@ class InertiaEstimate:
     residual_rms : float
         RMS of ``tau - G - I alpha`` in the window (N m).
     flags : tuple of str
-        Problems worth a look (each also raised as a :class:`~inertiafit.errors.TrialWarning`).
+        Problems worth a look, one line each (a study lists them as ``"file: flag"``).
     source : str
         The trial's file.
+    velocity, acceleration : ndarray or None
+        The filtered velocity (rad/s) and acceleration (rad/s^2) of the whole trial, on its
+        time samples, that the estimate was made from (for figures of the window).
     """
 
     inertia: float
@@ -79,6 +89,8 @@ class InertiaEstimate:
     residual_rms: float
     flags: tuple[str, ...] = ()
     source: str = ""
+    velocity: NDArray | None = field(default=None, repr=False, compare=False)
+    acceleration: NDArray | None = field(default=None, repr=False, compare=False)
 
 
 def saturated_run(x: NDArray, *, run: int = SATURATION_RUN) -> int:
@@ -132,7 +144,8 @@ def estimate_inertia(
     Returns
     -------
     InertiaEstimate
-        Both estimators, the window and flags.
+        Both estimators, the window, flags (short window, slightly negative inertia, saturated
+        torque or velocity) and the filtered velocity and acceleration.
 
     Raises
     ------
@@ -140,38 +153,9 @@ def estimate_inertia(
         If ``torque_sign`` is not +-1, the trial is too short or has no usable window, or the
         inertia is negative by more than ``NEGATIVE_SE`` standard errors (with the hint to set
         ``torque_sign = -1``).
-
-    Warns
-    -----
-    TrialWarning
-        For each flag: short window, slightly negative inertia, saturated torque or velocity.
     """
-    return _estimate(
-        trial,
-        gravity,
-        window=window,
-        speed_deg_s=speed_deg_s,
-        torque_sign=torque_sign,
-        cutoff=cutoff,
-        order=order,
-    )[0]
-
-
-def _estimate(
-    trial: xr.Dataset,
-    gravity: GravityFit,
-    *,
-    window: Sequence[float] | None = None,
-    speed_deg_s: float | None = None,
-    torque_sign: int = 1,
-    cutoff: float = CUTOFF,
-    order: int = ORDER,
-) -> tuple[InertiaEstimate, NDArray, NDArray]:
-    """:func:`estimate_inertia`, and the filtered velocity and acceleration it used.
-
-    Works on the trial's numpy arrays: xarray's copies and assignments cost more than the
-    filtering itself.
-    """
+    # Works on the trial's numpy arrays: xarray's copies and assignments cost more than the
+    # filtering itself.
     source = source_of(trial)
     if torque_sign not in (1, -1):
         raise InputError(f"{source}: torque_sign: expected +1 or -1, got {torque_sign!r}")
@@ -185,8 +169,7 @@ def _estimate(
     torque_f, velocity_f, alpha_f = lowpass_arrays(
         time, net, raw_velocity, rate, cutoff=cutoff, order=order, source=source
     )
-    # The window's flags are warned below with the others.
-    win = _window(
+    win = find_window_arrays(
         time,
         velocity_f,
         alpha_f,
@@ -231,9 +214,7 @@ def _estimate(
             f"saturation: velocity stays at its largest value for {clipped} samples inside "
             "the acceleration window (clipped?)"
         )
-    for flag in flags:
-        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=3)
-    estimate = InertiaEstimate(
+    return InertiaEstimate(
         inertia=value,
         inertia_se=se,
         inertia_frame_mean=frame_mean,
@@ -243,5 +224,6 @@ def _estimate(
         residual_rms=float(np.sqrt(np.mean(residuals**2))),
         flags=tuple(flags),
         source=source,
+        velocity=velocity_f,
+        acceleration=alpha_f,
     )
-    return estimate, velocity_f, alpha_f

@@ -5,7 +5,7 @@ The paper tests whether the per-trial inertias of a condition differ between the
 body's inertia does not depend on speed; a significant difference points at a processing or
 recording problem (a window that changes with speed, a filter lag, saturation).
 
-:func:`speed_effect` returns one tidy table, the ``speed_effect.csv`` of ``DESIGN.md``, with two
+:func:`speed_effect` returns one tidy table, ``speed_effect.csv`` (``docs/cli.md``), with two
 kinds of rows (column ``row``):
 
 - ``"speed"``: one per condition and speed: ``n``, ``mean``, ``sd`` (ddof 1) of the inertia,
@@ -29,6 +29,12 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 from scipy import stats
+
+__all__ = [
+    "COLUMNS",
+    "speed_effect",
+    "tukey_pairs",
+]
 
 COLUMNS = (
     "condition",

@@ -22,7 +22,6 @@ acceleration is still rising or falling.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -30,8 +29,21 @@ import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
 
-from inertiafit.errors import InputError, TrialWarning
+from inertiafit.errors import InputError
 from inertiafit.processing.filtering import CUTOFF, ORDER, lowpass, source_of
+
+__all__ = [
+    "LEVEL",
+    "MIN_DURATION",
+    "MIN_SAMPLES",
+    "MIN_SPEED",
+    "MIN_SPEED_CHANGE",
+    "MIN_WINDOW",
+    "TOLERANCE",
+    "AccelerationWindow",
+    "find_window",
+    "find_window_arrays",
+]
 
 #: Fraction of the peak acceleration that defines the candidate plateau.
 LEVEL = 0.5
@@ -131,18 +143,13 @@ def find_window(
     Returns
     -------
     AccelerationWindow
-        Times, sample indices, count and flags.
+        Times, sample indices, count and flags (``"short window ..."``).
 
     Raises
     ------
     InputError
         If no window satisfies the rule, or a manual window is malformed, outside the trial or
         holds fewer than ``MIN_WINDOW`` samples; the message names the file.
-
-    Warns
-    -----
-    TrialWarning
-        If the window is short (flag ``"short window ..."``).
     """
     source = source_of(trial)
     filtered = trial if "acceleration" in trial else lowpass(trial, cutoff=cutoff, order=order)
@@ -176,36 +183,8 @@ def find_window_arrays(
     """:func:`find_window` on arrays: filtered velocity (rad/s) and acceleration (rad/s^2).
 
     ``window`` and ``speed_deg_s`` are used as given (no trial attrs to fall back on);
-    ``source`` names the file in messages. Raises and warns as :func:`find_window`.
+    ``source`` names the file in messages. Raises as :func:`find_window`.
     """
-    found = _window(
-        time,
-        velocity,
-        acceleration,
-        source=source,
-        window=window,
-        speed_deg_s=speed_deg_s,
-        level=level,
-        tolerance=tolerance,
-        min_speed_change=min_speed_change,
-    )
-    for flag in found.flags:
-        warnings.warn(f"{source}: {flag}", TrialWarning, stacklevel=2)
-    return found
-
-
-def _window(
-    time: NDArray,
-    velocity: NDArray,
-    acceleration: NDArray,
-    *,
-    source: str,
-    window: Sequence[float] | None,
-    speed_deg_s: float | None,
-    level: float,
-    tolerance: float,
-    min_speed_change: float,
-) -> AccelerationWindow:
     t = np.asarray(time, dtype=np.float64)
     alpha = np.asarray(acceleration)
     if window is not None:

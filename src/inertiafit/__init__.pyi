@@ -1,0 +1,41 @@
+# The public API of inertiafit, loaded lazily by lazy_loader.attach_stub (see __init__.py).
+from .baseline import paper_baseline
+from .errors import ConvergenceWarning, InertiafitWarning, InputError
+from .inference.fit import fit, fit_body
+from .inference.model import Condition, Model
+from .inference.observations import Observation
+from .inference.priors import Prior, available_priors, load_prior
+from .inference.reference import reference_posterior
+from .inference.sampler import SamplerSettings, sample
+from .io import load_study, read_trial
+from .pipeline.batch import run_many
+from .pipeline.study import analyse_study, run_study
+from .posterior import Posterior, open_posterior
+
+__version__: str
+
+__all__ = [
+    "Condition",
+    "ConvergenceWarning",
+    "InertiafitWarning",
+    "InputError",
+    "Model",
+    "Observation",
+    "Posterior",
+    "Prior",
+    "SamplerSettings",
+    "__version__",
+    "analyse_study",
+    "available_priors",
+    "fit",
+    "fit_body",
+    "load_prior",
+    "load_study",
+    "open_posterior",
+    "paper_baseline",
+    "read_trial",
+    "reference_posterior",
+    "run_many",
+    "run_study",
+    "sample",
+]

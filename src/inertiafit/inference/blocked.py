@@ -1,0 +1,321 @@
+"""A blocked Gibbs sampler for studies of many segments on one attachment.
+
+Structure it uses
+-----------------
+A *leaf* body is mounted in exactly one condition, with no other leaf, and that condition has
+both observables; every other body is *shared* (the attachment). Given the shared bodies, the
+leaves are independent of each other. Write each leaf condition's totals
+``T_k = (a, b)_shared in k + (a_k, b_k)``; in coordinates ``(S, T_1..T_L)`` the posterior is
+
+    p(S, T) ~ pi_S(S) L_shared(S) * prod_k L_k(T_k) pi_k(T_k - S_k)
+
+with ``pi_k(a, b) = |Psi_k(a, b)| / a`` the leaf's prior in ``(a, b)`` (see
+:mod:`inertiafit.inference.model`) and ``L_k`` the evidence of leaf condition ``k``. Where the data say
+more than the prior boxes, ``T_k`` is nearly independent of ``S`` — the slow direction of a
+Gibbs sampler in the original coordinates (moving the attachment while every segment holds
+still) becomes a direction of nearly independent draws. Each sweep, vectorised over chains:
+
+1. ``S | T``: independence Metropolis-Hastings from a product of Student-t variables around the
+   Laplace fit of the shared bodies' own posterior (``pi_S L_shared``; the
+   :class:`~inertiafit.inference.moves.StudentTProposal` of the joint sampler); the leaves'
+   priors ``prod_k pi_k(T_k - S_k)`` enter the acceptance ratio.
+2. ``T_k | S`` for every leaf at once: independence Metropolis-Hastings proposing ``T_k`` from
+   the leaf condition's evidence itself (Student-t or Gaussian in the totals), so the
+   acceptance ratio is just ``pi_k(T'_k - S_k) / pi_k(T_k - S_k)``.
+
+One sweep costs ``O(K)`` and its mixing does not depend on ``K``: the whole run is linear in the
+number of segments. The draws are exact MCMC for the same posterior as the joint sampler's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inertiafit.inference.model import Model, feasible_measure
+from inertiafit.inference.moves import StudentTProposal
+from inertiafit.inference.observations import Observation
+from inertiafit.stats import student_t_draws, student_t_logpdf
+
+__all__ = ["BlockedGibbs", "Star", "star_structure"]
+
+
+@dataclass(frozen=True)
+class Star:
+    """Which bodies are shared, which are leaves, and how the conditions combine them.
+
+    Attributes
+    ----------
+    shared, leaves : tuple of int
+        Body indices into ``model.bodies``.
+    leaf_conditions : tuple of int
+        Index of each leaf's condition in ``model.conditions``.
+    shared_conditions : tuple of int
+        Conditions that hold shared bodies only.
+    weights : ndarray, shape (n_leaves, n_shared)
+        1 where a shared body is mounted in a leaf's condition.
+    """
+
+    shared: tuple[int, ...]
+    leaves: tuple[int, ...]
+    leaf_conditions: tuple[int, ...]
+    shared_conditions: tuple[int, ...]
+    weights: np.ndarray
+
+
+def star_structure(model: Model) -> Star | None:
+    """The shared/leaf decomposition of ``model``, or ``None`` where the blocked sampler can't run.
+
+    It runs when at least one body is a leaf (see the module docstring) and every shared body is
+    measured in some condition without leaves, with both observables in every such condition:
+    their evidence anchors the shared proposal.
+    """
+    member = model.membership.astype(bool)  # (conditions, bodies)
+    n_cond_of_body = member.sum(0)
+    candidates = [j for j in range(len(model.bodies)) if n_cond_of_body[j] == 1]
+    leaves, leaf_conds = [], []
+    for j in candidates:
+        ci = int(np.flatnonzero(member[:, j])[0])
+        cond = model.conditions[ci]
+        if cond.inertia is None or cond.gravity_moment is None:
+            continue
+        others = [i for i in np.flatnonzero(member[ci]) if i != j]
+        if any(i in candidates for i in others):
+            continue  # two single-condition bodies in one condition: not a star
+        leaves.append(j)
+        leaf_conds.append(ci)
+    if not leaves:
+        return None
+    shared = [j for j in range(len(model.bodies)) if j not in leaves]
+    shared_conds = [ci for ci in range(len(model.conditions)) if ci not in leaf_conds]
+    if shared:
+        covered = member[shared_conds][:, shared].any(0) if shared_conds else np.zeros(len(shared))
+        if not np.all(covered):
+            return None
+        if any(member[ci][leaves].any() for ci in shared_conds):
+            return None
+        own = [model.conditions[ci] for ci in shared_conds]
+        if any(c.inertia is None or c.gravity_moment is None for c in own):
+            return None  # the shared proposal's Laplace fit needs both observables
+    weights = np.array([[member[ci, s] for s in shared] for ci in leaf_conds], dtype=float)
+    return Star(
+        tuple(shared),
+        tuple(leaves),
+        tuple(leaf_conds),
+        tuple(shared_conds),
+        weights.reshape(len(leaves), len(shared)),
+    )
+
+
+class _Boxes:
+    """Prior bounds of several bodies as arrays, so one call covers every leaf."""
+
+    def __init__(self, priors) -> None:
+        keys = ("mass", "com_distance", "radius_of_gyration")
+        self.lower = {k: np.array([p.lower[k] for p in priors]) for k in keys}
+        self.upper = {k: np.array([p.upper[k] for p in priors]) for k in keys}
+
+
+def _evidence_arrays(observations: list[Observation]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    center = np.array([o.center for o in observations])
+    scale = np.array([o.scale for o in observations])
+    df = np.array([o.df for o in observations])
+    return center, scale, df
+
+
+class BlockedGibbs:
+    """The two-block sampler of the module docstring, run on ``n_chains`` chains at once.
+
+    Parameters
+    ----------
+    model : Model
+        The full model; :func:`star_structure` must not be ``None`` for it.
+    star : Star
+        Its decomposition.
+    shared_mode, shared_cov : ndarray
+        Laplace fit of the shared bodies' own posterior in ``(log a, log b)``
+        (:func:`~inertiafit.inference.moves.laplace_fit` of :meth:`shared_submodel`).
+    df : float
+        Degrees of freedom of the shared proposal
+        (:func:`~inertiafit.inference.moves.proposal_df` of the same).
+    """
+
+    def __init__(self, model: Model, star: Star, shared_mode, shared_cov, df: float) -> None:
+        self.model = model
+        self.star = star
+        self.g = model.gravity
+        self.shared_model = self.shared_submodel(model, star) if star.shared else None
+        self.proposal = StudentTProposal(shared_mode, shared_cov, df)
+        leaf_conds = [model.conditions[ci] for ci in star.leaf_conditions]
+        self.inertia = _evidence_arrays([c.inertia for c in leaf_conds])  # type: ignore[misc]
+        self.gravity = _evidence_arrays([c.gravity_moment for c in leaf_conds])  # type: ignore[misc]
+        self.boxes = _Boxes([model.priors[model.bodies[j]] for j in star.leaves])
+        self.accepted = np.zeros(3)
+        self.proposed = np.zeros(3)
+
+    @staticmethod
+    def shared_submodel(model: Model, star: Star) -> Model:
+        """The shared bodies with the conditions that hold only them: ``pi_S L_shared``."""
+        return Model(
+            {model.bodies[j]: model.priors[model.bodies[j]] for j in star.shared},
+            [model.conditions[ci] for ci in star.shared_conditions],
+            gravity=model.gravity,
+        )
+
+    # -- densities ---------------------------------------------------------------------------
+    def _leaf_log_prior(self, a, b) -> np.ndarray:
+        """``log pi_k(a, b)`` for every leaf, ``(..., L)``; ``-inf`` outside the boxes."""
+        ok = (a > 0) & (b > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            meas = feasible_measure(np.where(ok, a, 1.0), np.where(ok, b, 1.0), self.boxes)
+            return np.where(ok, np.log(meas) - np.log(np.where(ok, a, 1.0)), -np.inf)
+
+    def _shared_totals(self, s_log) -> tuple[np.ndarray, np.ndarray]:
+        """Shared bodies' contribution to each leaf condition: ``(..., L)`` in ``a`` and ``b``."""
+        if not self.star.shared:
+            shape = (*np.shape(s_log)[:-1], len(self.star.leaves))
+            return np.zeros(shape), np.zeros(shape)
+        w = self.star.weights.T
+        return np.exp(s_log[..., 0::2]) @ w, np.exp(s_log[..., 1::2]) @ w
+
+    def _shared_log_target(self, s_log, ta, tb) -> np.ndarray:
+        assert self.shared_model is not None
+        own = self.shared_model.log_prob(s_log)
+        sa, sb = self._shared_totals(s_log)
+        return own + self._leaf_log_prior(ta - sa, tb - sb).sum(-1)
+
+    # -- start and sweeps --------------------------------------------------------------------
+    def start(
+        self, n_chains: int, random: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Chains started from the proposals, each leaf redrawn until inside its box."""
+        n_shared = 2 * len(self.star.shared)
+        s_log = np.empty((n_chains, n_shared))
+        if n_shared:
+            filled = 0
+            for _ in range(200):
+                cand = self.proposal.draw(4 * n_chains, random)
+                cand = cand[np.isfinite(self.shared_model.log_prob(cand))]  # type: ignore[union-attr]
+                take = min(len(cand), n_chains - filled)
+                s_log[filled : filled + take] = cand[:take]
+                filled += take
+                if filled == n_chains:
+                    break
+            else:
+                raise RuntimeError("blocked sampler: could not start the shared bodies")
+        ta = student_t_draws(*self.gravity, (n_chains,), random) / self.g
+        tb = student_t_draws(*self.inertia, (n_chains,), random)
+        ta, tb = self.fit_leaves(s_log, ta, tb, random)
+        return s_log, ta, tb
+
+    def fit_leaves(self, s_log, ta, tb, random: np.random.Generator, tries: int = 200):
+        """Redraw, from the evidence, the leaf totals that leave a leaf outside its box."""
+        sa, sb = self._shared_totals(s_log)
+        for _ in range(tries):
+            bad = ~np.isfinite(self._leaf_log_prior(ta - sa, tb - sb))
+            if not bad.any():
+                break
+            na = student_t_draws(*self.gravity, np.shape(ta)[:-1], random) / self.g
+            nb = student_t_draws(*self.inertia, np.shape(ta)[:-1], random)
+            ta, tb = np.where(bad, na, ta), np.where(bad, nb, tb)
+        return ta, tb
+
+    def sweep(self, s_log, ta, tb, random: np.random.Generator, n_sub: int = 2):
+        """One Gibbs sweep (``n_sub`` Metropolis-Hastings steps per block) on every chain."""
+        n = len(ta)
+        if self.star.shared:
+            cur = self._shared_log_target(s_log, ta, tb)
+            for _ in range(n_sub):
+                new = self.proposal.draw(n, random)
+                lp_new = self._shared_log_target(new, ta, tb)
+                with np.errstate(invalid="ignore"):
+                    log_r = (
+                        lp_new
+                        - cur
+                        + self.proposal.log_density(s_log)
+                        - self.proposal.log_density(new)
+                    )
+                acc = np.log(random.uniform(size=n)) < np.where(
+                    np.isfinite(lp_new), log_r, -np.inf
+                )
+                acc |= ~np.isfinite(cur) & np.isfinite(lp_new)
+                s_log = np.where(acc[:, None], new, s_log)
+                cur = np.where(acc, lp_new, cur)
+                self.accepted[0] += acc.sum()
+                self.proposed[0] += n
+            s_log, ta, tb = self._shared_step_leaves_fixed(s_log, ta, tb, random)
+        sa, sb = self._shared_totals(s_log)
+        cur_l = self._leaf_log_prior(ta - sa, tb - sb)
+        for _ in range(n_sub):
+            na = student_t_draws(*self.gravity, (n,), random) / self.g
+            nb = student_t_draws(*self.inertia, (n,), random)
+            new_l = self._leaf_log_prior(na - sa, nb - sb)
+            with np.errstate(invalid="ignore"):
+                log_r = np.where(np.isfinite(new_l), new_l - cur_l, -np.inf)
+            acc = np.log(random.uniform(size=log_r.shape)) < log_r
+            acc |= ~np.isfinite(cur_l) & np.isfinite(new_l)
+            ta, tb = np.where(acc, na, ta), np.where(acc, nb, tb)
+            cur_l = np.where(acc, new_l, cur_l)
+            self.accepted[1] += acc.sum()
+            self.proposed[1] += acc.size
+        return s_log, ta, tb
+
+    def _leaf_log_likelihood(self, ta, tb) -> np.ndarray:
+        """Log evidence of every leaf condition at totals ``(ta, tb)``, summed over leaves."""
+        return (
+            student_t_logpdf(self.g * ta, *self.gravity, normalised=False)
+            + student_t_logpdf(tb, *self.inertia, normalised=False)
+        ).sum(-1)
+
+    def _shared_step_leaves_fixed(self, s_log, ta, tb, random: np.random.Generator):
+        """Move the shared bodies with every leaf body held still (the totals follow).
+
+        The step of the other parametrisation, ``(S, s_1..s_L)``: where a leaf's prior box
+        ties its total to the shared bodies (a chain in a far tail), ``S | T`` and ``T | S``
+        both hold still and only a joint move gets out.
+        """
+        n = len(ta)
+        sa, sb = self._shared_totals(s_log)
+        cur = self.shared_model.log_prob(s_log) + self._leaf_log_likelihood(ta, tb)  # type: ignore[union-attr]
+        new = self.proposal.draw(n, random)
+        na, nb = self._shared_totals(new)
+        ta_new, tb_new = ta + (na - sa), tb + (nb - sb)
+        lp_new = self.shared_model.log_prob(new) + self._leaf_log_likelihood(ta_new, tb_new)  # type: ignore[union-attr]
+        with np.errstate(invalid="ignore"):
+            log_r = (
+                lp_new - cur + self.proposal.log_density(s_log) - self.proposal.log_density(new)
+            )
+        acc = np.log(random.uniform(size=n)) < np.where(np.isfinite(lp_new), log_r, -np.inf)
+        acc |= ~np.isfinite(cur) & np.isfinite(lp_new)
+        self.accepted[2] += acc.sum()
+        self.proposed[2] += n
+        keep = acc[:, None]
+        return np.where(keep, new, s_log), np.where(keep, ta_new, ta), np.where(keep, tb_new, tb)
+
+    def joint_coordinates(self, s_log, ta, tb) -> np.ndarray:
+        """``(log a, log b)`` of every body in the model's order, ``(..., 2 * n_bodies)``."""
+        sa, sb = self._shared_totals(s_log)
+        lead = np.shape(ta)[:-1]
+        z = np.empty((*lead, self.model.ndim))
+        for i, j in enumerate(self.star.shared):
+            z[..., 2 * j] = s_log[..., 2 * i]
+            z[..., 2 * j + 1] = s_log[..., 2 * i + 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for i, j in enumerate(self.star.leaves):
+                z[..., 2 * j] = np.log(ta[..., i] - sa[..., i])
+                z[..., 2 * j + 1] = np.log(tb[..., i] - sb[..., i])
+        return z
+
+    @property
+    def acceptance(self) -> dict[str, float]:
+        """Acceptance fractions of the three updates (``nan`` for one that never ran)."""
+        with np.errstate(invalid="ignore"):
+            rates = self.accepted / self.proposed
+        return dict(
+            zip(
+                ("acceptance_shared", "acceptance_leaves", "acceptance_joint"),
+                map(float, rates),
+                strict=True,
+            )
+        )

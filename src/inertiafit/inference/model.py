@@ -1,0 +1,319 @@
+"""The statistical model: bodies with prior boxes, conditions that superpose them, evidence.
+
+Parametrisation
+---------------
+Rotation about one axis identifies, per body, only the first moment of mass ``a = m x`` (kg m)
+and the inertia about the joint ``b = I`` (kg m^2). Write the rest of the body as the angle
+``psi = atan(x / rho)`` in ``(0, pi/2)``: with ``R = b/a``, ``x = R sin^2 psi``,
+``rho = R sin psi cos psi`` and ``m = a/x``. The uniform prior on the box of ``(m, x, rho)`` is,
+in ``(a, b, psi)``, the density ``1/a`` on the image of the box, and for fixed ``(a, b)`` it is
+*uniform in psi* on the set ``Psi(a, b)`` of angles that keep all three parameters inside their
+bounds — at most two intervals, known in closed form. The likelihood does not involve ``psi``.
+
+So the posterior factorises exactly: ``p(a, b | data) ~ L(a, b) |Psi(a, b)| / a`` is sampled
+with emcee (in ``log a, log b``, where it is close to Gaussian and axis-aligned), and ``psi``
+is drawn exactly, uniformly from ``Psi(a, b)``, for every kept draw. The data-identified part and
+the prior-only part of the problem are separate coordinates.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from inertiafit import physics
+from inertiafit.errors import InputError
+from inertiafit.inference.observations import Observation
+from inertiafit.inference.priors import Prior
+from inertiafit.physics import GRAVITY, PARAMETERS
+
+__all__ = [
+    "Box",
+    "Condition",
+    "Model",
+    "angles_at",
+    "draw_angles",
+    "feasible_angles",
+    "feasible_measure",
+]
+
+HALF_PI = np.pi / 2
+
+
+class Box(Protocol):
+    """Prior bounds: a :class:`Prior`, or several bodies' bounds as arrays."""
+
+    @property
+    def lower(self) -> Mapping[str, Any]:
+        """Lower bounds of ``mass``, ``com_distance``, ``radius_of_gyration``."""
+        ...
+
+    @property
+    def upper(self) -> Mapping[str, Any]:
+        """Upper bounds, same keys."""
+        ...
+
+
+def feasible_angles(first_moment, inertia, prior: Box):
+    """Intervals of ``psi`` that keep ``(m, x, rho)`` inside the prior box.
+
+    Parameters
+    ----------
+    first_moment, inertia : array_like
+        ``a = m x`` (kg m) and ``b = I`` (kg m^2), broadcast together.
+    prior : Prior
+        The box.
+
+    Returns
+    -------
+    lo1, hi1, lo2, hi2 : ndarray
+        Two intervals ``[lo, hi]`` in rad (an empty one has ``hi <= lo``); their union is
+        ``Psi(a, b)``.
+    """
+    a = np.asarray(first_moment, dtype=float)
+    b = np.asarray(inertia, dtype=float)
+    r = b / a  # x = r sin^2(psi), rho = (r / 2) sin(2 psi)
+    lo, up = prior.lower, prior.upper
+    # x and m = a / x bound x; x = r sin^2 psi is increasing in psi.
+    x_lo = np.maximum(lo["com_distance"], a / up["mass"])
+    x_hi = np.minimum(up["com_distance"], a / lo["mass"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a0 = np.arcsin(np.sqrt(np.clip(x_lo / r, 0.0, 1.0)))
+        a1 = np.arcsin(np.sqrt(np.clip(x_hi / r, 0.0, 1.0)))
+        # rho >= rho_lo: sin(2 psi) >= 2 rho_lo / r, an interval symmetric about pi/4.
+        s_lo = 2 * lo["radius_of_gyration"] / r
+        b0 = 0.5 * np.arcsin(np.clip(s_lo, 0.0, 1.0))
+        b1 = HALF_PI - b0
+        b1 = np.where(s_lo > 1, -1.0, b1)  # rho can never reach its lower bound
+        # rho <= rho_hi: psi <= c or psi >= pi/2 - c.
+        c = 0.5 * np.arcsin(np.clip(2 * up["radius_of_gyration"] / r, 0.0, 1.0))
+    start = np.maximum(a0, b0)
+    end = np.minimum(a1, b1)
+    empty_x = x_lo >= np.minimum(x_hi, r)
+    end = np.where(empty_x, -1.0, end)
+    lo1, hi1 = start, np.minimum(end, c)
+    lo2, hi2 = np.maximum(start, HALF_PI - c), end
+    return lo1, hi1, lo2, hi2
+
+
+def feasible_measure(first_moment, inertia, prior: Box):
+    """Length of ``Psi(a, b)`` in rad: the prior mass of the curve through ``(a, b)``, times a."""
+    lo1, hi1, lo2, hi2 = feasible_angles(first_moment, inertia, prior)
+    return np.maximum(hi1 - lo1, 0.0) + np.maximum(hi2 - lo2, 0.0)
+
+
+def angles_at(first_moment, inertia, prior: Box, fraction):
+    """The angle ``fraction`` (in ``[0, 1)``) of the way through ``Psi(a, b)``.
+
+    ``fraction`` broadcasts against ``(a, b)``; uniform fractions give uniform angles.
+    """
+    lo1, hi1, lo2, hi2 = feasible_angles(first_moment, inertia, prior)
+    len1 = np.maximum(hi1 - lo1, 0.0)
+    len2 = np.maximum(hi2 - lo2, 0.0)
+    u = np.asarray(fraction) * (len1 + len2)
+    return np.where(u < len1, lo1 + u, lo2 + (u - len1))
+
+
+def draw_angles(first_moment, inertia, prior: Box, rng: np.random.Generator):
+    """Draw ``psi`` uniformly from ``Psi(a, b)`` for each pair (arrays of one shape)."""
+    shape = np.broadcast_shapes(np.shape(first_moment), np.shape(inertia))
+    return angles_at(first_moment, inertia, prior, rng.uniform(size=shape))
+
+
+@dataclass(frozen=True)
+class Condition:
+    """A set of bodies mounted together and the evidence measured on them.
+
+    Attributes
+    ----------
+    bodies : tuple of str
+        Names of the mounted bodies; their ``I`` and ``M_g`` add up.
+    inertia : Observation or None
+        Evidence on the total inertia about the joint (kg m^2).
+    gravity_moment : Observation or None
+        Evidence on the total gravitational moment (N m).
+    label : str
+        Defaults to the body names joined by ``+``.
+    """
+
+    bodies: tuple[str, ...]
+    inertia: Observation | None = None
+    gravity_moment: Observation | None = None
+    label: str = ""
+
+    def __post_init__(self):
+        if not self.label:
+            object.__setattr__(self, "label", "+".join(self.bodies))
+
+
+class Model:
+    """Joint posterior over every body's ``(m, x, rho)`` given the conditions' evidence.
+
+    Parameters
+    ----------
+    priors : mapping of str to Prior
+        One prior box per body, in the order bodies are reported.
+    conditions : sequence of Condition
+        What was measured; every body must appear in at least one condition.
+    gravity : float
+        Gravitational acceleration (m/s^2).
+    """
+
+    def __init__(
+        self,
+        priors: Mapping[str, Prior],
+        conditions: Sequence[Condition],
+        *,
+        gravity: float = GRAVITY,
+    ) -> None:
+        self.priors = dict(priors)
+        self.bodies = tuple(self.priors)
+        self.conditions = tuple(conditions)
+        self.gravity = float(gravity)
+        if not self.conditions:
+            raise InputError("model: no conditions (nothing was measured)")
+        labels = [c.label for c in self.conditions]
+        if len(set(labels)) != len(labels):
+            raise InputError(f"model: condition labels repeat: {labels}")
+        index = {b: i for i, b in enumerate(self.bodies)}
+        self.membership = np.zeros((len(self.conditions), len(self.bodies)))
+        for ci, cond in enumerate(self.conditions):
+            for body in cond.bodies:
+                if body not in index:
+                    raise InputError(f"condition '{cond.label}': unknown body '{body}'")
+                self.membership[ci, index[body]] = 1.0
+        unused = [
+            b for b, used in zip(self.bodies, self.membership.any(0), strict=True) if not used
+        ]
+        if unused:
+            raise InputError(f"model: body '{unused[0]}' is in no condition")
+        self._inertia = [(ci, c.inertia) for ci, c in enumerate(self.conditions) if c.inertia]
+        self._gravity = [
+            (ci, c.gravity_moment) for ci, c in enumerate(self.conditions) if c.gravity_moment
+        ]
+
+    @property
+    def ndim(self) -> int:
+        """Number of sampled coordinates: ``(log a, log b)`` per body."""
+        return 2 * len(self.bodies)
+
+    def split(self, z):
+        """Sampled coordinates ``(..., 2K)`` → ``a`` (kg m) and ``b`` (kg m^2), each ``(..., K)``."""
+        z = np.asarray(z)
+        return np.exp(z[..., 0::2]), np.exp(z[..., 1::2])
+
+    def log_prior(self, z):
+        """Log density of the marginal prior of ``(log a, log b)``, up to a constant."""
+        a, b = self.split(z)
+        out = np.zeros(np.shape(a)[:-1])
+        for k, body in enumerate(self.bodies):
+            with np.errstate(divide="ignore"):
+                out = out + np.log(feasible_measure(a[..., k], b[..., k], self.priors[body]))
+        return out + np.log(b).sum(-1)
+
+    def log_likelihood_terms(self, z) -> dict[str, np.ndarray]:
+        """Pointwise log-likelihood: ``inertia`` and ``gravity_moment``, each ``(..., n_obs)``."""
+        a, b = self.split(z)
+        total_a = a @ self.membership.T
+        total_b = b @ self.membership.T
+        lead = np.shape(a)[:-1]
+        inertia = [obs.logpdf(total_b[..., ci]) for ci, obs in self._inertia]
+        grav = [obs.logpdf(self.gravity * total_a[..., ci]) for ci, obs in self._gravity]
+        return {
+            "inertia": np.stack(inertia, -1) if inertia else np.zeros((*lead, 0)),
+            "gravity_moment": np.stack(grav, -1) if grav else np.zeros((*lead, 0)),
+        }
+
+    def log_prob(self, z):
+        """Log posterior density of ``(log a, log b)`` up to a constant; vectorised over rows."""
+        z = np.atleast_2d(z)
+        lp = self.log_prior(z)
+        ok = np.isfinite(lp)
+        out = np.full(lp.shape, -np.inf)
+        if ok.any():
+            terms = self.log_likelihood_terms(z[ok])
+            out[ok] = lp[ok] + terms["inertia"].sum(-1) + terms["gravity_moment"].sum(-1)
+        return out
+
+    def parameters(self, z, rng: np.random.Generator) -> dict[str, np.ndarray]:
+        """Complete sampled coordinates with exact angle draws → physical parameters.
+
+        Returns a dict with ``mass``, ``com_distance``, ``radius_of_gyration``, ``inertia`` and
+        ``gravity_moment``, each of shape ``(..., K)``.
+        """
+        a, b = self.split(z)
+        psi = np.empty_like(a)
+        for k, body in enumerate(self.bodies):
+            psi[..., k] = draw_angles(a[..., k], b[..., k], self.priors[body], rng)
+        mass, x, rho = physics.parameters_from_identified(a, b, psi)
+        return {
+            "mass": mass,
+            "com_distance": x,
+            "radius_of_gyration": rho,
+            "inertia": b,
+            "gravity_moment": self.gravity * a,
+        }
+
+    def prior_draws(self, size: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
+        """Draws from the prior boxes, same layout as :meth:`parameters` with ``(size, K)``."""
+        cols: dict[str, list] = {p: [] for p in (*PARAMETERS, "inertia", "gravity_moment")}
+        for body in self.bodies:
+            d = self.priors[body].sample(size, rng)
+            for p in PARAMETERS:
+                cols[p].append(d[p])
+            m, x, rho = d["mass"], d["com_distance"], d["radius_of_gyration"]
+            cols["inertia"].append(physics.inertia(m, rho, x))
+            cols["gravity_moment"].append(physics.gravity_moment(m, x, self.gravity))
+        return {k: np.stack(v, -1) for k, v in cols.items()}
+
+    def check_feasible(self) -> None:
+        """Fail early, and say why, when no point of a body's box can explain its evidence.
+
+        Only single-body conditions with both observables are checked in closed form: the
+        bound ``m >= (M_g/g)^2 / I`` and its twins for ``x`` and ``rho``, over the region
+        where the likelihood holds all but 1e-4 of its mass.
+        """
+        for cond in self.conditions:
+            if len(cond.bodies) != 1 or not (cond.inertia and cond.gravity_moment):
+                continue
+            prior = self.priors[cond.bodies[0]]
+            g0 = cond.gravity_moment.center
+            a0 = g0 / self.gravity
+            b0 = cond.inertia.center
+            da = cond.gravity_moment.quantile_halfwidth() / self.gravity
+            db = cond.inertia.quantile_halfwidth()
+            aa, bb = np.meshgrid(
+                np.linspace(max(a0 - da, 1e-9 * a0), a0 + da, 61),
+                np.linspace(max(b0 - db, 1e-9 * b0), b0 + db, 61),
+            )
+            if feasible_measure(aa, bb, prior).max() > 0:
+                continue
+            m_min = a0 * a0 / b0
+            x_max = b0 / a0
+            where = f"prior '{prior.name}'"
+            if prior.upper["mass"] < m_min:
+                why = (
+                    f"mass upper bound {prior.upper['mass']:.4g} kg is below "
+                    f"(M_g/g)^2/I = {m_min:.4g} kg"
+                )
+            elif prior.lower["com_distance"] > x_max:
+                why = (
+                    f"com_distance lower bound {prior.lower['com_distance']:.4g} m is above "
+                    f"I g/M_g = {x_max:.4g} m"
+                )
+            elif prior.lower["radius_of_gyration"] > x_max / 2:
+                why = (
+                    f"radius_of_gyration lower bound {prior.lower['radius_of_gyration']:.4g} m "
+                    f"is above I g/(2 M_g) = {x_max / 2:.4g} m"
+                )
+            else:
+                why = (
+                    f"no (m, x, rho) in the box gives M_g = {g0:.4g} N m and "
+                    f"I = {b0:.4g} kg m^2 ((M_g/g)^2/I = {m_min:.4g} kg)"
+                )
+            raise InputError(
+                f"{where}: the prior box contains no solution for condition '{cond.label}': {why}"
+            )

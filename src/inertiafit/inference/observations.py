@@ -1,0 +1,118 @@
+"""Likelihood of one observable of one condition, from trial values or a reported summary.
+
+Repeated trial values ``y_1..y_n`` with unknown noise ``sigma`` under a Jeffreys prior
+``p(sigma) ~ 1/sigma``: integrating ``sigma`` out leaves a Student-t for the true value ``mu``
+with ``n - 1`` degrees of freedom, location ``mean(y)`` and scale ``sd(y)/sqrt(n)``. A mean
+reported with its SD and ``n`` carries exactly the same information (they are sufficient
+statistics), so it gives the same Student-t. A single value with a known standard error (a
+quasi-static fit, or a value quoted with its SE) gives a Gaussian.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from inertiafit._checks import check_positive
+from inertiafit.errors import InputError
+from inertiafit.stats import student_t_logpdf
+
+__all__ = ["Observation"]
+
+
+@dataclass(frozen=True)
+class Observation:
+    """Evidence about the true value ``mu`` of one observable.
+
+    Attributes
+    ----------
+    center : float
+        Location: the mean of the values (same unit as the observable).
+    scale : float
+        Standard error of the mean, ``sd/sqrt(n)``, or the given standard error.
+    df : float
+        Degrees of freedom of the Student-t; ``inf`` for a Gaussian.
+    n : int
+        Number of trials behind the value (1 for a single value with its SE).
+    values : tuple of float
+        The trial values when they were given one by one, else empty.
+    """
+
+    center: float
+    scale: float
+    df: float
+    n: int
+    values: tuple[float, ...] = ()
+
+    @classmethod
+    def from_values(cls, values: Sequence[float], *, se: float | None = None, where="values"):
+        """Evidence from trial values; a single value needs its standard error ``se``."""
+        vals = [check_positive(v, f"{where}[{i}]") for i, v in enumerate(values)]
+        if not vals:
+            raise InputError(f"{where}: no values given")
+        if len(vals) == 1:
+            if se is None:
+                raise InputError(
+                    f"{where}: one value needs its standard error (or give its SD and n, "
+                    "or the repeated trial values)"
+                )
+            return cls.from_mean_se(vals[0], se, where=where)
+        if se is not None:
+            raise InputError(f"{where}: give repeated values or one value with its SE, not both")
+        arr = np.asarray(vals)
+        sd = float(arr.std(ddof=1))
+        if sd == 0:
+            raise InputError(
+                f"{where}: the {len(vals)} values are identical; their spread is zero"
+            )
+        return cls(
+            float(arr.mean()), sd / math.sqrt(len(vals)), len(vals) - 1.0, len(vals), tuple(vals)
+        )
+
+    @classmethod
+    def from_mean_se(cls, mean: float, se: float, *, where="value"):
+        """A single value with a known standard error: a Gaussian."""
+        return cls(
+            check_positive(mean, where),
+            check_positive(se, f"{where} standard error"),
+            math.inf,
+            1,
+        )
+
+    @classmethod
+    def from_mean_sd(cls, mean: float, sd: float, n: int, *, where="value"):
+        """A mean of ``n`` trials with their SD: the same Student-t as the trial values."""
+        m = check_positive(mean, where)
+        s = check_positive(sd, f"{where} SD")
+        if isinstance(n, bool) or float(n) != int(n) or int(n) < 2:
+            raise InputError(f"{where}: number of trials n must be an integer >= 2, got {n!r}")
+        n = int(n)
+        return cls(m, s / math.sqrt(n), n - 1.0, n)
+
+    @property
+    def is_gaussian(self) -> bool:
+        """Whether the likelihood is Gaussian (a value with a known SE)."""
+        return math.isinf(self.df)
+
+    def logpdf(self, mu):
+        """Log-likelihood of true values ``mu`` (array), normalised as a density in ``mu``.
+
+        The Student-t (or Gaussian) density of :func:`inertiafit.stats.student_t_logpdf`.
+        """
+        return student_t_logpdf(mu, self.center, self.scale, self.df)
+
+    def quantile_halfwidth(self, tail: float = 1e-4) -> float:
+        """Half-width around ``center`` that holds all but ``tail`` of the likelihood's mass."""
+        from scipy import stats
+
+        if self.is_gaussian:
+            return float(stats.norm.isf(tail / 2) * self.scale)
+        return float(stats.t.isf(tail / 2, self.df) * self.scale)
+
+    def describe(self, unit: str = "") -> str:
+        """Short text such as ``0.216 +- 0.0031 kg m^2 (Student-t, 30 trials)``."""
+        kind = "Gaussian" if self.is_gaussian else f"Student-t, {self.n} trials"
+        return f"{self.center:.4g} ± {self.scale:.2g} {unit} ({kind})".replace("  ", " ")

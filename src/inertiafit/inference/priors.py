@@ -1,0 +1,308 @@
+"""Prior boxes for a body's inertial parameters, read from small TOML files.
+
+A prior file holds a ``description``, a ``source``, an optional top-level ``spread`` (default
+0.5, the paper's +-50 % box) and one table per parameter::
+
+    description = "Biodex elbow attachment as an ideal square tube"
+    source = "Son et al., Table 2 (ideal row)"
+    spread = 0.5
+    [mass]
+    nominal = 2.91
+    unit = "kg"
+    [radius_of_gyration]
+    nominal = 0.130
+    unit = "m"
+    spread = 0.3            # this parameter's own spread, or
+    [com_distance]
+    nominal = 0.225
+    unit = "m"
+    lower = 0.15            # explicit bounds instead of a spread
+    upper = 0.30
+
+An optional ``[reference]`` table carries published values to print beside the posterior
+(``label``, ``mass``, ``com_distance``, ``radius_of_gyration``, ``inertia`` in SI units).
+Files are parsed against this schema; nothing in them is executed.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from inertiafit.errors import InputError
+from inertiafit.io.units import si_factors
+from inertiafit.physics import PARAMETERS, UNITS
+
+__all__ = ["DEFAULT_SPREAD", "Prior", "available_priors", "load_prior", "parse_prior"]
+
+DEFAULT_SPREAD = 0.5
+
+# Each parameter's quantity in the unit table of inertiafit.io.units; a prior file's ``unit``
+# must be one of its canonical spellings (kg, g; m, cm, mm), exactly as written.
+_QUANTITY = {"mass": "mass", "com_distance": "length", "radius_of_gyration": "length"}
+_TOP_KEYS = {"name", "description", "source", "spread", "reference", *PARAMETERS}
+_PARAM_KEYS = {"nominal", "unit", "spread", "lower", "upper", "label"}
+_REFERENCE_KEYS = {"label", "inertia", "gravity_moment", *PARAMETERS}
+
+
+@dataclass(frozen=True)
+class Prior:
+    """Uniform prior box on ``(mass, com_distance, radius_of_gyration)`` of one body.
+
+    Attributes
+    ----------
+    name : str
+        Short name (the file stem for shipped priors); used as the body label.
+    nominal : dict[str, float]
+        Nominal value per parameter in SI units (kg, m, m).
+    lower, upper : dict[str, float]
+        Bounds of the box per parameter in SI units; ``0 < lower < upper``.
+    description, source : str
+        What the body is and where the numbers come from.
+    reference : dict[str, Any]
+        Optional published values (SI units) to show beside the posterior.
+    path : pathlib.Path or None
+        The file it was read from.
+    """
+
+    name: str
+    nominal: dict[str, float]
+    lower: dict[str, float]
+    upper: dict[str, float]
+    description: str = ""
+    source: str = ""
+    reference: dict[str, Any] = field(default_factory=dict)
+    path: Path | None = None
+
+    @classmethod
+    def box(
+        cls,
+        name: str,
+        *,
+        mass: float,
+        com_distance: float,
+        radius_of_gyration: float,
+        spread: float = DEFAULT_SPREAD,
+        description: str = "",
+        source: str = "",
+    ) -> Prior:
+        """Build the box ``nominal x (1 +- spread)`` around nominal values in SI units."""
+        table = {
+            "mass": mass,
+            "com_distance": com_distance,
+            "radius_of_gyration": radius_of_gyration,
+            "spread": spread,
+            "description": description,
+            "source": source,
+        }
+        return parse_prior(table, name=name, where=f"prior '{name}'")
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Array ``(3, 2)`` of ``[lower, upper]`` in the order of :data:`PARAMETERS`."""
+        return np.array([[self.lower[p], self.upper[p]] for p in PARAMETERS])
+
+    def contains(self, mass, com_distance, radius_of_gyration) -> np.ndarray:
+        """Boolean mask of points inside the box (arrays broadcast)."""
+        inside = np.ones(np.broadcast(mass, com_distance, radius_of_gyration).shape, bool)
+        for p, v in zip(PARAMETERS, (mass, com_distance, radius_of_gyration), strict=True):
+            inside &= (np.asarray(v) >= self.lower[p]) & (np.asarray(v) <= self.upper[p])
+        return inside
+
+    def sample(self, size: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
+        """Independent draws from the box, a dict of arrays of length ``size`` (SI units)."""
+        return {p: rng.uniform(self.lower[p], self.upper[p], size) for p in PARAMETERS}
+
+    def describe(self) -> str:
+        """One line per parameter: nominal and bounds with units."""
+        lines = [f"prior '{self.name}': {self.description}".rstrip(": ")]
+        for p in PARAMETERS:
+            lines.append(
+                f"  {p:<19} nominal {self.nominal[p]:.4g} {UNITS[p]}, "
+                f"uniform on [{self.lower[p]:.4g}, {self.upper[p]:.4g}]"
+            )
+        if self.source:
+            lines.append(f"  source: {self.source}")
+        return "\n".join(lines)
+
+
+def _number(value: Any, where: str, field_name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{where}: '{field_name}' must be a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise InputError(f"{where}: '{field_name}' must be finite, got {value!r}")
+    return v
+
+
+def parse_prior(
+    table: dict[str, Any], *, name: str, where: str, path: Path | None = None
+) -> Prior:
+    """Validate a prior table (from a TOML file or an inline manifest table).
+
+    Parameters may be tables (``nominal``, ``unit``, ``spread`` or ``lower``/``upper``) or
+    plain numbers (a nominal in SI units), as in a manifest's inline
+    ``prior = { mass = 2.92, radius_of_gyration = 0.035, com_distance = 0.45 }``.
+
+    Raises
+    ------
+    InputError
+        On unknown keys, a missing parameter or nominal, non-positive values, a bad unit,
+        ``lower >= upper`` or a nominal outside its bounds; the message names ``where`` and
+        the field.
+    """
+    if not isinstance(table, dict):
+        raise InputError(f"{where}: expected a table of prior parameters, got {table!r}")
+    unknown = sorted(set(table) - _TOP_KEYS)
+    if unknown:
+        raise InputError(
+            f"{where}: unknown key '{unknown[0]}' (allowed: {', '.join(sorted(_TOP_KEYS))})"
+        )
+    spread = _number(table.get("spread", DEFAULT_SPREAD), where, "spread")
+    if not 0 < spread < 1:
+        raise InputError(f"{where}: 'spread' must lie in (0, 1), got {spread}")
+    nominal, lower, upper = {}, {}, {}
+    for p in PARAMETERS:
+        if p not in table:
+            raise InputError(f"{where}: missing parameter table '[{p}]' (with 'nominal')")
+        entry = table[p]
+        if not isinstance(entry, dict):
+            entry = {"nominal": entry}
+        bad = sorted(set(entry) - _PARAM_KEYS)
+        if bad:
+            raise InputError(
+                f"{where}: unknown key '{p}.{bad[0]}' (allowed: {', '.join(sorted(_PARAM_KEYS))})"
+            )
+        if "nominal" not in entry:
+            raise InputError(f"{where}: '{p}.nominal' is missing (a positive number)")
+        unit = entry.get("unit", UNITS[p])
+        factors = si_factors(_QUANTITY[p])
+        if unit not in factors:
+            raise InputError(
+                f"{where}: '{p}.unit' is {unit!r}; expected one of {', '.join(factors)}"
+            )
+        scale = factors[unit]
+        nom = _number(entry["nominal"], where, f"{p}.nominal") * scale
+        if nom <= 0:
+            raise InputError(f"{where}: '{p}.nominal' must be positive, got {entry['nominal']}")
+        own_spread = _number(entry.get("spread", spread), where, f"{p}.spread")
+        if not 0 < own_spread < 1:
+            raise InputError(f"{where}: '{p}.spread' must lie in (0, 1), got {own_spread}")
+        if ("lower" in entry) != ("upper" in entry):
+            raise InputError(f"{where}: give both '{p}.lower' and '{p}.upper', or neither")
+        if "lower" in entry:
+            if "spread" in entry:
+                raise InputError(f"{where}: give '{p}.spread' or '{p}.lower'/'upper', not both")
+            lo = _number(entry["lower"], where, f"{p}.lower") * scale
+            hi = _number(entry["upper"], where, f"{p}.upper") * scale
+        else:
+            lo, hi = nom * (1 - own_spread), nom * (1 + own_spread)
+        if lo < 0 or (lo == 0 and p == "mass"):
+            raise InputError(f"{where}: '{p}.lower' must be positive, got {lo / scale:g}")
+        if lo >= hi:
+            raise InputError(
+                f"{where}: '{p}.lower' ({lo / scale:g}) must be below '{p}.upper' ({hi / scale:g})"
+            )
+        if not lo <= nom <= hi:
+            raise InputError(
+                f"{where}: '{p}.nominal' ({nom / scale:g}) lies outside "
+                f"[{lo / scale:g}, {hi / scale:g}]"
+            )
+        nominal[p], lower[p], upper[p] = nom, lo, hi
+    reference = table.get("reference", {})
+    if not isinstance(reference, dict):
+        raise InputError(f"{where}: 'reference' must be a table")
+    bad = sorted(set(reference) - _REFERENCE_KEYS)
+    if bad:
+        raise InputError(f"{where}: unknown key 'reference.{bad[0]}'")
+    ref = {
+        k: (v if k == "label" else _number(v, where, f"reference.{k}"))
+        for k, v in reference.items()
+    }
+    for key in ("description", "source"):
+        if not isinstance(table.get(key, ""), str):
+            raise InputError(f"{where}: '{key}' must be a string")
+    return Prior(
+        name=str(table.get("name", name)),
+        nominal=nominal,
+        lower=lower,
+        upper=upper,
+        description=table.get("description", ""),
+        source=table.get("source", ""),
+        reference=ref,
+        path=path,
+    )
+
+
+def _shipped_dirs() -> list[Path]:
+    """Folders holding shipped prior files: inside the wheel, or the source tree's priors/."""
+    dirs = []
+    packaged = Path(str(resources.files("inertiafit"))) / "priors"
+    if packaged.is_dir():
+        dirs.append(packaged)
+    source_tree = Path(__file__).resolve().parents[3] / "priors"  # src/inertiafit/inference/
+    if source_tree.is_dir():
+        dirs.append(source_tree)
+    return dirs
+
+
+def available_priors() -> dict[str, Path]:
+    """Shipped prior files by name (file stem)."""
+    found: dict[str, Path] = {}
+    for d in _shipped_dirs():
+        for f in sorted(d.glob("*.toml")):
+            found.setdefault(f.stem, f)
+    return found
+
+
+def load_prior(
+    spec: str | Path | dict | Prior, *, base_dir: Path | None = None, name=None
+) -> Prior:
+    """Find and read a prior: a shipped name, a path to a TOML file, or an inline table.
+
+    Parameters
+    ----------
+    spec : str, pathlib.Path, dict or Prior
+        ``"biodex-elbow-attachment"`` (a file in ``priors/``), a path (relative paths are taken
+        relative to ``base_dir``), or an inline table as accepted by :func:`parse_prior`.
+    base_dir : pathlib.Path, optional
+        Folder that relative paths are resolved against (the manifest's folder).
+    name : str, optional
+        Body name for an inline table (defaults to ``"body"``).
+
+    Raises
+    ------
+    InputError
+        Unknown name, unreadable or malformed file.
+    """
+    if isinstance(spec, Prior):
+        return spec
+    if isinstance(spec, dict):
+        return parse_prior(spec, name=name or "body", where=f"prior of '{name or 'body'}'")
+    text = str(spec)
+    shipped = available_priors()
+    path = Path(text)
+    if base_dir is not None and not path.is_absolute():
+        path = Path(base_dir) / path
+    if text in shipped and not path.is_file():
+        path = shipped[text]
+    elif not path.is_file():
+        if path.suffix == "" and not any(c in text for c in "/\\"):
+            raise InputError(
+                f"prior '{text}': no such shipped prior and no such file "
+                f"(shipped: {', '.join(shipped) or 'none'})"
+            )
+        raise InputError(f"{path}: prior file not found")
+    try:
+        table = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read prior file ({exc})") from None
+    return parse_prior(table, name=name or path.stem, where=str(path), path=path)

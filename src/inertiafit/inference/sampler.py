@@ -1,0 +1,353 @@
+"""Run emcee on a :class:`~inertiafit.inference.model.Model` until it has converged.
+
+The walkers explore ``(log a, log b)`` per body (see :mod:`inertiafit.inference.model`), where the
+posterior is close to Gaussian and axis-aligned. The default moves are 70 % independence
+Metropolis-Hastings from heavy-tailed proposals around the Laplace approximation
+(:class:`~inertiafit.inference.moves.IndependenceMove`), 20 % differential evolution and 10 %
+DE-snooker; ``"de"`` (80/20 DE/snooker) and ``"stretch"`` remain available. The proposals and
+the Laplace fit live in :mod:`inertiafit.inference.moves`. Sampling runs in chunks; after each
+chunk the integrated autocorrelation time ``tau`` of every coordinate is estimated, the first
+``burn_factor * tau`` steps are dropped, and the run stops when
+
+* the chain is longer than ``50 tau`` for every coordinate,
+* the rank-normalised split R-hat of every reported parameter is at most ``r_hat_max``, and
+* the bulk ESS of every reported parameter is at least ``ess_min``,
+
+or when ``max_steps`` is reached, with a :class:`~inertiafit.errors.ConvergenceWarning`.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inertiafit.errors import ConvergenceWarning, InputError
+from inertiafit.inference.blocked import BlockedGibbs, Star, star_structure
+from inertiafit.inference.model import Model
+from inertiafit.inference.moves import MOVES, emcee_moves, laplace_fit, proposal_df
+
+__all__ = ["SAMPLERS", "SamplerRun", "SamplerSettings", "resolve_moves", "sample"]
+
+#: Names :attr:`SamplerSettings.moves` accepts.
+SAMPLERS = ("auto", "blocked", *MOVES)
+
+
+@dataclass
+class SamplerSettings:
+    """Knobs of :func:`sample`; the defaults are what the command line uses.
+
+    Attributes
+    ----------
+    n_walkers : int
+        emcee's ensemble size (raised to ``2 * ndim + 2`` if smaller), or the number of
+        independent chains of the blocked sampler.
+    chunk : int
+        Steps (blocked sampler: sweeps) between convergence checks.
+    max_steps : int
+        Bound on the total number of steps.
+    ess_min : float
+        Target bulk effective sample size of every reported parameter.
+    r_hat_max : float
+        Largest acceptable rank-normalised R-hat.
+    tau_factor : float
+        The chain must be longer than ``tau_factor * tau``.
+    burn_factor : float
+        Steps dropped at the start, in units of ``tau``.
+    moves : str
+        ``"auto"`` (default): ``"blocked"`` for a model of two or more bodies that
+        :func:`inertiafit.inference.blocked.star_structure` decomposes (an attachment measured alone
+        and with each segment), else ``"independent"``.
+        ``"blocked"``: the two-block Gibbs sampler of :mod:`inertiafit.inference.blocked` (chains are
+        independent, ``n_walkers`` of them; cost linear in the number of segments).
+        ``"independent"``: emcee with 70 % independence Metropolis-Hastings from a Student-t
+        around the Laplace approximation, 20 % DE, 10 % DE-snooker. ``"de"`` (80 % DE,
+        20 % DE-snooker) or ``"stretch"`` (emcee's default move).
+    progress : bool or None
+        Progress line on stderr; ``None`` shows it only on a terminal.
+    """
+
+    n_walkers: int = 32
+    chunk: int = 250
+    max_steps: int = 20_000
+    ess_min: float = 1000.0
+    r_hat_max: float = 1.01
+    tau_factor: float = 50.0
+    burn_factor: float = 3.0
+    moves: str = "auto"
+    progress: bool | None = None
+
+
+@dataclass
+class SamplerRun:
+    """What :func:`sample` returns: kept draws and diagnostics.
+
+    Attributes
+    ----------
+    chain : ndarray, shape (n_walkers, n_draws, ndim)
+        Kept sampled coordinates ``(log a, log b)`` per body, walkers as chains.
+    log_prob : ndarray, shape (n_walkers, n_draws)
+        Log posterior density of the kept draws (sampled coordinates, up to a constant).
+    parameters : dict of str to ndarray
+        Physical parameters, each ``(n_walkers, n_draws, n_bodies)``.
+    tau : ndarray, shape (ndim,)
+        Integrated autocorrelation time of each sampled coordinate (steps).
+    n_steps, burn : int
+        Steps taken in all and steps dropped at the start.
+    acceptance : float
+        Mean acceptance fraction.
+    converged : bool
+        Whether every criterion was met before ``max_steps``.
+    seconds : float
+        Wall time of the sampling.
+    moves : str
+        The sampler that ran (``"auto"`` resolved).
+    """
+
+    chain: np.ndarray
+    log_prob: np.ndarray
+    parameters: dict[str, np.ndarray]
+    tau: np.ndarray
+    n_steps: int
+    burn: int
+    acceptance: float
+    converged: bool
+    seconds: float
+    settings: SamplerSettings
+    diagnostics: dict[str, float] = field(default_factory=dict)
+    moves: str = ""
+
+
+def _initial_walkers(
+    model: Model, n_walkers: int, mode: np.ndarray, cov: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """Walkers inside the support, spread like the posterior near its mode."""
+    d = model.ndim
+    walkers = np.empty((0, d))
+    for _ in range(200):
+        cand = rng.multivariate_normal(mode, cov, size=4 * n_walkers)
+        walkers = np.vstack([walkers, cand[np.isfinite(model.log_prob(cand))]])
+        if len(walkers) >= n_walkers:
+            return walkers[:n_walkers]
+        cov = cov / 4
+    raise InputError("model: could not place the walkers inside the prior boxes")
+
+
+def _progress(enabled: bool, steps: int, max_steps: int, tau: float, ess: float, t0: float):
+    if enabled:
+        sys.stderr.write(
+            f"\rsampling: {steps:>6d}/{max_steps} steps  tau {tau:5.1f}  "
+            f"min ESS {ess:7.0f}  {time.perf_counter() - t0:5.1f} s"
+        )
+        sys.stderr.flush()
+
+
+def _checks(params: dict[str, np.ndarray]) -> tuple[float, float]:
+    """Smallest bulk ESS and largest R-hat over every reported quantity, in one pass each."""
+    from arviz_stats.base import array_stats
+
+    # (walkers, draws, bodies) per quantity -> (quantities * bodies, chains, draws)
+    stack = np.concatenate([np.moveaxis(v, -1, 0) for v in params.values()])
+    ess = array_stats.ess(stack, chain_axis=-2, draw_axis=-1, method="bulk")
+    rhat = array_stats.rhat(stack, chain_axis=-2, draw_axis=-1)
+    return float(np.min(ess)), float(np.max(rhat))
+
+
+def resolve_moves(model: Model, moves: str) -> str:
+    """The sampler ``moves`` stands for on this model (``"auto"`` decided, names checked)."""
+    if moves not in SAMPLERS:
+        raise InputError(
+            f"sampler: unknown moves '{moves}' "
+            "(expected 'auto', 'blocked', 'independent', 'de' or 'stretch')"
+        )
+    if moves not in ("auto", "blocked"):
+        return moves
+    if star_structure(model) is None:
+        if moves == "blocked":
+            raise InputError(
+                "sampler: moves 'blocked' needs bodies mounted in one condition each beside "
+                "shared bodies that are also measured on their own; this model has none"
+            )
+        return "independent"
+    return "blocked" if moves == "blocked" or len(model.bodies) >= 2 else "independent"
+
+
+class _EmceeChains:
+    """emcee's ensemble with the joint moves (``independent``, ``de``, ``stretch``)."""
+
+    def __init__(self, model: Model, moves: str, n_walkers: int, seed: int) -> None:
+        import emcee
+
+        rng = np.random.default_rng(seed)
+        d = model.ndim
+        n_walkers = max(n_walkers, 2 * d + 2)
+        mode, cov = laplace_fit(model, rng)
+        self.state = _initial_walkers(model, n_walkers, mode, cov, rng)
+        self.sampler = emcee.EnsembleSampler(
+            n_walkers,
+            d,
+            model.log_prob,
+            moves=emcee_moves(moves, mode, cov, proposal_df(model)),
+            vectorize=True,
+        )
+        # emcee draws from a copy of numpy's global RandomState taken at construction: seed it.
+        self.sampler.random_state = np.random.RandomState(seed).get_state()
+
+    def run(self, steps: int) -> None:
+        self.state = self.sampler.run_mcmc(self.state, steps, progress=False)
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.sampler.iteration)
+
+    def chain(self) -> np.ndarray:
+        """Every step so far, ``(steps, walkers, ndim)``."""
+        return self.sampler.get_chain()
+
+    def log_prob(self, burn: int) -> np.ndarray:
+        """Log density of the draws after ``burn``, ``(walkers, draws)`` (emcee stored it)."""
+        return np.swapaxes(self.sampler.get_log_prob()[burn:], 0, 1)
+
+    def acceptance(self) -> dict[str, float]:
+        return {"acceptance": float(np.mean(self.sampler.acceptance_fraction))}
+
+
+class _BlockedChains:
+    """The blocked Gibbs sampler of :mod:`inertiafit.inference.blocked`, chains as walkers."""
+
+    def __init__(self, model: Model, star: Star, n_walkers: int, seed: int) -> None:
+        if star.shared:
+            shared = BlockedGibbs.shared_submodel(model, star)
+            mode, cov = laplace_fit(shared, np.random.default_rng(seed))
+            df = proposal_df(shared)
+        else:
+            mode, cov, df = np.zeros(0), np.zeros((0, 0)), 5.0
+        self.model = model
+        self.gibbs = BlockedGibbs(model, star, mode, cov, df)
+        self.random = np.random.default_rng([seed, 3])
+        self.state = self.gibbs.start(n_walkers, self.random)
+        self.steps: list[np.ndarray] = []
+        self.n_steps = 0
+
+    def run(self, steps: int) -> None:
+        block = np.empty((steps, len(self.state[1]), self.model.ndim))
+        for i in range(steps):
+            self.state = self.gibbs.sweep(*self.state, self.random)
+            block[i] = self.gibbs.joint_coordinates(*self.state)
+        self.steps.append(block)
+        self.n_steps += steps
+
+    def chain(self) -> np.ndarray:
+        """Every sweep so far, ``(sweeps, chains, ndim)``."""
+        if len(self.steps) > 1:
+            self.steps = [np.concatenate(self.steps)]
+        return self.steps[0]
+
+    def log_prob(self, burn: int) -> np.ndarray:
+        """Log density of the draws after ``burn``, ``(chains, draws)`` (computed: none kept)."""
+        kept = np.swapaxes(self.chain()[burn:], 0, 1)
+        return self.model.log_prob(kept.reshape(-1, self.model.ndim)).reshape(kept.shape[:2])
+
+    def acceptance(self) -> dict[str, float]:
+        rates = self.gibbs.acceptance
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # nan for a block that never ran
+            mean = float(np.nanmean(list(rates.values())))
+        return {"acceptance": mean, **rates}
+
+
+def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = None) -> SamplerRun:
+    """Sample the posterior of ``model`` until converged.
+
+    Parameters
+    ----------
+    model : Model
+        Bodies, priors and evidence.
+    seed : int
+        Seeds the walkers' start, the sampler's random state and the exact angle draws; the
+        same seed and inputs give the same draws.
+    settings : SamplerSettings, optional
+        Walkers, chunk size, step bound, convergence targets and the sampler (``moves``).
+
+    Returns
+    -------
+    SamplerRun
+        Kept draws and diagnostics.
+
+    Warns
+    -----
+    ConvergenceWarning
+        When ``max_steps`` is reached before every criterion is met.
+    """
+    import emcee
+
+    s = settings or SamplerSettings()
+    moves = resolve_moves(model, s.moves)
+    d = model.ndim
+    chains: _EmceeChains | _BlockedChains
+    if moves == "blocked":
+        star = star_structure(model)
+        assert star is not None  # resolve_moves chose "blocked" because there is one
+        chains = _BlockedChains(model, star, s.n_walkers, seed)
+    else:
+        chains = _EmceeChains(model, moves, s.n_walkers, seed)
+    show = sys.stderr.isatty() if s.progress is None else s.progress
+    t0 = time.perf_counter()
+    converged = False
+    tau = np.full(d, np.nan)
+    burn = 0
+    params: dict[str, np.ndarray] = {}
+    diag: dict[str, float] = {}
+    while chains.n_steps < s.max_steps:
+        # Chunks grow with the chain, so the diagnostics cost a bounded share of the run.
+        steps = min(max(s.chunk, chains.n_steps // 4), s.max_steps - chains.n_steps)
+        chains.run(steps)
+        chain = chains.chain()  # (steps, walkers, dim)
+        tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
+        tau_max = float(np.max(tau))
+        burn = min(math.ceil(s.burn_factor * tau_max), chains.n_steps // 2)
+        kept = np.swapaxes(chain[burn:], 0, 1)  # (walkers, draws, dim)
+        long_enough = chains.n_steps > s.tau_factor * tau_max
+        if not long_enough and chains.n_steps < s.max_steps:
+            # ESS and R-hat of every quantity cost more than the steps: wait for 50 tau.
+            diag = {"ess_bulk_min": math.nan, "r_hat_max": math.nan, "tau_max": tau_max}
+            _progress(show, chains.n_steps, s.max_steps, tau_max, math.nan, t0)
+            continue
+        params = model.parameters(kept, np.random.default_rng([seed, 1]))
+        ess_min, rhat_max = _checks(params)
+        diag = {"ess_bulk_min": ess_min, "r_hat_max": rhat_max, "tau_max": tau_max}
+        _progress(show, chains.n_steps, s.max_steps, tau_max, ess_min, t0)
+        if long_enough and rhat_max <= s.r_hat_max and ess_min >= s.ess_min:
+            converged = True
+            break
+    if show:
+        sys.stderr.write("\n")
+    if not converged:
+        warnings.warn(
+            f"sampler stopped at max_steps={s.max_steps} before converging "
+            f"(tau {diag.get('tau_max', math.nan):.1f} steps, min bulk ESS "
+            f"{diag.get('ess_bulk_min', math.nan):.0f}, max R-hat "
+            f"{diag.get('r_hat_max', math.nan):.3f}); treat the intervals with care",
+            ConvergenceWarning,
+            stacklevel=2,
+        )
+    log_prob = chains.log_prob(burn)
+    accept = chains.acceptance()
+    return SamplerRun(
+        chain=kept,
+        log_prob=log_prob,
+        parameters=params,
+        tau=np.asarray(tau),
+        n_steps=chains.n_steps,
+        burn=burn,
+        acceptance=accept.pop("acceptance"),
+        converged=converged,
+        seconds=time.perf_counter() - t0,
+        settings=s,
+        diagnostics={**diag, **accept},
+        moves=moves,
+    )

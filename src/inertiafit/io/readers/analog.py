@@ -1,0 +1,87 @@
+"""The ``analog`` format: DAQ voltages in a CSV, calibrated linearly by the manifest."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import xarray as xr
+
+from inertiafit.errors import InputError
+from inertiafit.io.readers.registry import register_reader
+from inertiafit.io.readers.tables import load_table
+from inertiafit.io.readers.validation import DEFAULT_UNITS, check_calibration
+from inertiafit.io.trial import make_trial
+from inertiafit.io.units import QUANTITIES, to_si
+
+__all__ = ["read_analog"]
+
+
+@register_reader("analog")
+def read_analog(
+    path: Path,
+    *,
+    columns: Mapping[str, str] | None = None,
+    units: Mapping[str, str] | None = None,
+    calibration: Mapping[str, Any] | None = None,
+    delimiter: str = ",",
+    decimal: str = ".",
+) -> xr.Dataset:
+    """Read DAQ channels in volts and apply the manifest's linear calibration.
+
+    The file is a CSV with a header: a time column and one voltage column per channel
+    (default names ``time``, ``angle``, ``velocity``, ``torque``; map others with
+    ``columns``). Each channel becomes ``scale * volts + offset`` in its calibration ``unit``
+    (or ``units.<channel>``, or deg, deg/s, N*m), then SI.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    columns : mapping of str to str, optional
+        Column name per channel.
+    units : mapping of str to str, optional
+        ``units.time`` (default s); a channel unit here must agree with its calibration unit.
+    calibration : mapping
+        ``{"angle": {...}, "velocity": {...}, "torque": {...}}``, each
+        ``{"scale": float, "offset": float = 0, "unit": str}``; all three are required.
+    delimiter, decimal : str, optional
+        As for :func:`~inertiafit.io.readers.csv.read_csv`.
+
+    Returns
+    -------
+    xarray.Dataset
+        The Trial, ``attrs["format"] = "analog"``.
+
+    Raises
+    ------
+    InputError
+        A channel without calibration, a malformed calibration, and every problem
+        :func:`~inertiafit.io.readers.csv.read_csv` reports.
+    """
+    cal = check_calibration(calibration, where=f"{path}: calibration")
+    for channel in QUANTITIES[1:]:
+        if channel not in cal:
+            raise InputError(
+                f"{path}: calibration.{channel} missing; the analog format needs "
+                f"{{ scale, offset, unit }} for each of angle, velocity, torque "
+                "(value = scale x volts + offset)"
+            )
+    unit_of = {"time": (units or {}).get("time", DEFAULT_UNITS["time"])}
+    for channel, (_, _, cal_unit) in cal.items():
+        user_unit = (units or {}).get(channel)
+        if cal_unit is not None and user_unit is not None and cal_unit != user_unit:
+            raise InputError(
+                f"{path}: units.{channel} = {user_unit!r} contradicts "
+                f"calibration.{channel}.unit = {cal_unit!r}; give the unit once"
+            )
+        unit_of[channel] = cal_unit or user_unit or DEFAULT_UNITS[channel]
+    names = {q: q for q in QUANTITIES} | dict(columns or {})
+    volts, lines = load_table(path, names, delimiter=delimiter, decimal=decimal)
+    si = [to_si(volts["time"], "time", unit_of["time"], where=f"{path}: units.time")]
+    for channel in QUANTITIES[1:]:
+        scale, offset, _ = cal[channel]
+        where = f"{path}: calibration.{channel}.unit"
+        si.append(to_si(scale * volts[channel] + offset, channel, unit_of[channel], where=where))
+    return make_trial(*si, source=str(path), format="analog", columns=names, lines=lines)

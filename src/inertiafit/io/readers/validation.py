@@ -1,0 +1,245 @@
+"""Checks shared by the readers and the manifest, and the choice of each channel's unit.
+
+The ``columns``, ``units`` and ``calibration`` tables are checked here for :func:`read_trial
+<inertiafit.io.readers.registry.read_trial>` and for the manifest; :func:`resolve_units`
+decides a channel's unit when both the file and the user may state it.
+
+Every problem is one :class:`~inertiafit.errors.InputError` line that starts with ``where``
+(``"<file>: <key path>"``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from inertiafit.errors import InputError
+from inertiafit.io.units import QUANTITIES, canonical_unit
+
+__all__ = [
+    "CALIBRATION_KEYS",
+    "DEFAULT_UNITS",
+    "check_calibration",
+    "check_channel_table",
+    "check_columns",
+    "check_number",
+    "check_units",
+    "reject_calibration",
+    "resolve_units",
+]
+
+#: Units assumed by the generic ``csv`` and ``analog`` readers when the manifest gives none.
+DEFAULT_UNITS = {"time": "s", "angle": "deg", "velocity": "deg/s", "torque": "N*m"}
+#: Keys of one channel's entry in ``calibration``.
+CALIBRATION_KEYS = ("scale", "offset", "unit")
+
+
+def check_channel_table(
+    table: object, *, where: str, what: str, convert: Callable[[str, object, str], str]
+) -> dict[str, str]:
+    """Check a mapping of channel -> string and convert each value (for columns and units).
+
+    The one helper behind :func:`check_columns` and :func:`check_units`.
+
+    Parameters
+    ----------
+    table : mapping or None
+        Keys must be channels (``time``, ``angle``, ``velocity``, ``torque``).
+    where : str
+        ``"<file>: <key path>"`` for error messages.
+    what : str
+        What a value is (``"column name"``, ``"unit"``), for the message about a non-table.
+    convert : callable
+        ``convert(channel, value, where)`` checks one value and returns it, possibly
+        rewritten; ``where`` is the value's key path.
+
+    Returns
+    -------
+    dict of str to str
+        Channel -> converted value, in the table's order; ``{}`` for ``None``.
+
+    Raises
+    ------
+    InputError
+        If ``table`` is not a mapping, a key is not a channel, or ``convert`` rejects a value.
+    """
+    if table is None:
+        return {}
+    if not isinstance(table, Mapping):
+        raise InputError(f"{where}: expected a table of channel = {what}, got {table!r}")
+    out = {}
+    for key, value in table.items():
+        if key not in QUANTITIES:
+            raise InputError(f"{where}.{key}: unknown channel (channels: {', '.join(QUANTITIES)})")
+        out[key] = convert(key, value, f"{where}.{key}")
+    return out
+
+
+def _column_name(_channel: str, name: object, where: str) -> str:
+    if not isinstance(name, str) or not name.strip():
+        raise InputError(f"{where}: expected a column name (a string), got {name!r}")
+    return name
+
+
+def _unit(channel: str, unit: object, where: str) -> str:
+    return canonical_unit(channel, unit, where=where)
+
+
+def check_columns(columns: object, *, where: str) -> dict[str, str]:
+    """Check a ``columns`` mapping (channel -> file column name) and return it as a dict.
+
+    Raises
+    ------
+    InputError
+        If it is not a mapping of known channels to strings.
+    """
+    return check_channel_table(columns, where=where, what="column name", convert=_column_name)
+
+
+def check_units(units: object, *, where: str) -> dict[str, str]:
+    """Check a ``units`` mapping (channel -> unit) and return it with canonical spellings.
+
+    Raises
+    ------
+    InputError
+        If a channel is unknown or a unit is not accepted.
+    """
+    return check_channel_table(units, where=where, what="unit", convert=_unit)
+
+
+def check_calibration(
+    calibration: object, *, where: str
+) -> dict[str, tuple[float, float, str | None]]:
+    """Check an ``analog`` calibration table and return ``{channel: (scale, offset, unit)}``.
+
+    Parameters
+    ----------
+    calibration : mapping
+        ``{channel: {"scale": float, "offset": float = 0, "unit": str = None}}`` for channels
+        ``angle``, ``velocity``, ``torque``.
+    where : str
+        ``"<file>: <key path>"`` for error messages.
+
+    Returns
+    -------
+    dict
+        Channel -> ``(scale, offset, canonical unit or None)``.
+
+    Raises
+    ------
+    InputError
+        If the table, a channel or a key is malformed; a scale must be finite and non-zero.
+    """
+    if calibration is None:
+        return {}
+    if not isinstance(calibration, Mapping):
+        raise InputError(f"{where}: expected a table of channel = {{ scale, offset, unit }}")
+    out: dict[str, tuple[float, float, str | None]] = {}
+    for channel, entry in calibration.items():
+        here = f"{where}.{channel}"
+        if channel not in QUANTITIES[1:]:
+            raise InputError(f"{here}: unknown channel (channels: angle, velocity, torque)")
+        if not isinstance(entry, Mapping):
+            raise InputError(f"{here}: expected a table {{ scale = ..., offset = ..., unit }}")
+        bad = [k for k in entry if k not in CALIBRATION_KEYS]
+        if bad:
+            raise InputError(
+                f"{here}.{bad[0]}: unknown key (allowed: {', '.join(CALIBRATION_KEYS)})"
+            )
+        if "scale" not in entry:
+            raise InputError(f"{here}.scale: missing (value = scale x volts + offset)")
+        scale = check_number(entry["scale"], where=f"{here}.scale")
+        if scale == 0.0:
+            raise InputError(f"{here}.scale: must be non-zero, got 0")
+        offset = check_number(entry.get("offset", 0.0), where=f"{here}.offset")
+        unit = entry.get("unit")
+        if unit is not None:
+            unit = canonical_unit(channel, unit, where=f"{here}.unit")
+        out[channel] = (scale, offset, unit)
+    return out
+
+
+def check_number(value: object, *, where: str) -> float:
+    """Return ``value`` as a float if it is a finite int or float (not a bool).
+
+    Raises
+    ------
+    InputError
+        ``"<where>: expected a number, got ..."`` or ``"... a finite number ..."``.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{where}: expected a number, got {value!r}")
+    if not math.isfinite(value):
+        raise InputError(f"{where}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+def reject_calibration(path: Path, calibration: object, format: str) -> None:
+    """Refuse a ``calibration`` given to a reader other than ``analog``.
+
+    Raises
+    ------
+    InputError
+        If ``calibration`` is given (not empty).
+    """
+    if calibration:
+        raise InputError(
+            f"{path}: calibration is only used by format 'analog' (this trial's format is "
+            f"'{format}'); remove it or set format = \"analog\""
+        )
+
+
+def resolve_units(
+    path: Path,
+    *,
+    declared: Mapping[str, str | None],
+    given: Mapping[str, str],
+    defaults: Mapping[str, str],
+    said_by: str,
+) -> dict[str, str]:
+    """Units per channel: what the file declares, else what the user gave, else the default.
+
+    A user's unit that contradicts the file's is an error rather than a silent override: a
+    manifest-wide default must never rescale a vendor file that states its own unit.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for messages.
+    declared : mapping
+        Channel -> unit stated by the file, or ``None`` where it is silent.
+    given : mapping
+        Channel -> unit from the manifest (``units``).
+    defaults : mapping
+        Channel -> unit when neither states one; needed only for channels left open.
+    said_by : str
+        What in the file states the units (``"header"``, ``"metadata line 3"``).
+
+    Returns
+    -------
+    dict of str to str
+        Channel -> canonical unit, for every channel.
+
+    Raises
+    ------
+    InputError
+        An unknown unit, or a user's unit that contradicts the file's.
+    """
+    out = {}
+    for q in QUANTITIES:
+        file_unit = declared.get(q)
+        user_unit = given.get(q)
+        if user_unit is not None:
+            user_unit = canonical_unit(q, user_unit, where=f"{path}: units.{q}")
+        if file_unit is not None:
+            file_unit = canonical_unit(q, file_unit, where=f"{path}: {said_by}")
+            if user_unit is not None and user_unit != file_unit:
+                raise InputError(
+                    f"{path}: units.{q} = {user_unit!r} contradicts the file, whose {said_by} "
+                    f"says {file_unit!r}; remove units.{q} or correct the file"
+                )
+            out[q] = file_unit
+        else:
+            out[q] = user_unit if user_unit is not None else defaults[q]
+    return out

@@ -1,0 +1,12 @@
+"""The commands as library functions: each runs the stages in order and writes the outputs.
+
+- :mod:`~inertiafit.pipeline.study`: :func:`analyse_study` and :func:`run_study` (``run``);
+- :mod:`~inertiafit.pipeline.fit`: :func:`run_fit` (``fit``: one body from numbers);
+- :mod:`~inertiafit.pipeline.redraw`: :func:`redraw` (``report``: from saved outputs);
+- :mod:`~inertiafit.pipeline.demo`: :func:`run_demo` (``demo``);
+- :mod:`~inertiafit.pipeline.batch`: :func:`run_many` (``run-many``: many studies, on Dask).
+"""
+
+from __future__ import annotations
+
+__all__: list[str] = []

@@ -1,0 +1,130 @@
+"""One body from reported numbers: ``inertiafit fit`` and the result it draws from."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from inertiafit.baseline import BaselineResult, paper_baseline
+from inertiafit.errors import InputError
+from inertiafit.inference.fit import fit_body
+from inertiafit.inference.priors import Prior, load_prior
+from inertiafit.io.outputs import output_folder
+from inertiafit.physics import GRAVITY
+from inertiafit.posterior import Posterior
+from inertiafit.report.outputs import write_fit_outputs
+from inertiafit.report.result import Result, make_result
+from inertiafit.report.text import fit_comparison_text
+
+__all__ = ["FIT_FILES", "fit_result", "prior_baseline", "run_fit"]
+
+FIT_FILES = "summary.csv identification.csv comparison.csv posterior.nc corner.pdf corner.png"
+
+
+def prior_baseline(
+    prior: Prior, inertia: float, gravity_moment: float, gravity: float
+) -> dict[str, BaselineResult]:
+    """The paper's multi-start answer for one body's numbers inside its prior box, by name.
+
+    :func:`~inertiafit.baseline.paper_baseline` with its default method.
+    """
+    return {
+        prior.name: paper_baseline(
+            inertia=inertia,
+            gravity_moment=gravity_moment,
+            nominal=prior.nominal,
+            lower=prior.lower,
+            upper=prior.upper,
+            gravity=gravity,
+        )
+    }
+
+
+def fit_result(
+    post: Posterior,
+    prior: Prior,
+    *,
+    inertia: float,
+    gravity_moment: float,
+    gravity: float,
+    hdi_prob: float,
+    require_baseline: bool = True,
+) -> Result:
+    """The :class:`~inertiafit.report.result.Result` of one body fitted from numbers.
+
+    The paper's estimator is computed at the evidence's centres ``inertia`` and
+    ``gravity_moment``. When the estimator fails (:class:`~inertiafit.errors.InputError`) the error propagates,
+    or, with ``require_baseline=False`` (redrawing a saved fit), the result has no baseline.
+    """
+    try:
+        baselines = prior_baseline(prior, inertia, gravity_moment, gravity)
+    except InputError:
+        if require_baseline:
+            raise
+        baselines = {}
+    return make_result(
+        name=prior.name,
+        posterior=post,
+        priors={prior.name: prior},
+        gravity=gravity,
+        hdi_prob=hdi_prob,
+        baselines=baselines,
+    )
+
+
+def run_fit(
+    *,
+    prior: str | Path | Prior,
+    inertia: float | Sequence[float],
+    gravity_moment: float | Sequence[float],
+    inertia_se: float | None = None,
+    inertia_sd: float | None = None,
+    inertia_n: int | None = None,
+    gravity_moment_se: float | None = None,
+    gravity_moment_sd: float | None = None,
+    gravity_moment_n: int | None = None,
+    gravity: float = GRAVITY,
+    out: str | Path = "inertiafit-output",
+    seed: int = 0,
+    hdi_prob: float = 0.95,
+    echo: Callable[[str], None] = print,
+    shown_as: str | Path | None = None,
+) -> Posterior:
+    """``inertiafit fit``: posterior of one body, written to ``out`` and printed.
+
+    ``shown_as`` is the folder named in the closing line when ``out`` is a temporary folder
+    that will be renamed (the demo).
+    """
+    prior_obj = load_prior(prior)
+    post = fit_body(
+        prior_obj,
+        inertia=inertia,
+        gravity_moment=gravity_moment,
+        inertia_se=inertia_se,
+        inertia_sd=inertia_sd,
+        inertia_n=inertia_n,
+        gravity_moment_se=gravity_moment_se,
+        gravity_moment_sd=gravity_moment_sd,
+        gravity_moment_n=gravity_moment_n,
+        gravity=gravity,
+        seed=seed,
+    )
+    result = fit_result(
+        post,
+        prior_obj,
+        inertia=float(np.mean(inertia)),
+        gravity_moment=float(np.mean(gravity_moment)),
+        gravity=gravity,
+        hdi_prob=hdi_prob,
+    )
+    with output_folder(out) as folder:
+        write_fit_outputs(folder, result)
+    echo(prior_obj.describe())
+    echo("")
+    echo(post.report(hdi_prob))
+    echo("")
+    echo(fit_comparison_text(result))
+    echo(f"\nwrote {Path(shown_as or out)}/: {FIT_FILES}")
+    return post

@@ -1,0 +1,177 @@
+"""A whole study: trial files → per-trial estimates → joint posterior → every output file.
+
+:func:`analyse_study` runs the stages in order — :func:`~inertiafit.processing.study.process_study`
+(trials read and processed), :func:`~inertiafit.inference.evidence.condition_evidence` (trials
+become evidence), :func:`~inertiafit.inference.fit.fit` (the posterior is sampled), the speed
+effect and the paper's estimator — and returns a :class:`~inertiafit.report.result.Result`.
+:func:`run_study` also writes every output (:func:`~inertiafit.report.outputs.write_outputs`).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from inertiafit._checks import check_probability
+from inertiafit.baseline import BaselineResult, paper_baseline
+from inertiafit.errors import InputError
+from inertiafit.inference.evidence import condition_evidence, study_priors
+from inertiafit.inference.fit import fit
+from inertiafit.inference.model import Model
+from inertiafit.inference.priors import Prior
+from inertiafit.io import Study, load_study
+from inertiafit.io.outputs import output_folder
+from inertiafit.processing.speed import speed_effect
+from inertiafit.processing.study import condition_gravity, process_study
+from inertiafit.report.outputs import write_outputs
+from inertiafit.report.result import Result, make_result
+from inertiafit.shapes import ideal_body
+
+__all__ = ["analyse_study", "paper_baselines", "run_study", "study_ideals"]
+
+
+def study_ideals(study: Study) -> dict[str, dict[str, float]]:
+    """Ideal (textbook) values of the bodies that declare one (``[bodies.NAME.ideal]``)."""
+    return {
+        name: ideal_body(body.ideal, f"{study.path}: bodies.{name}.ideal").as_dict(study.gravity)
+        for name, body in study.bodies.items()
+        if body.ideal
+    }
+
+
+def paper_baselines(
+    trials: pd.DataFrame,
+    conditions: Mapping[str, tuple[str, ...]],
+    priors: Mapping[str, Prior],
+    *,
+    gravity: float,
+    notes: list[str] | None = None,
+) -> dict[str, BaselineResult]:
+    """The paper's estimator per body, as the paper applies it.
+
+    A body measured alone gets the multi-start fit of its condition's mean ``I`` and ``M_g``;
+    a body added to another condition gets the fit of the differences of the condition means
+    (Son et al., section 3.2: ``I_w = mean(I_b) - mean(I_a)``). Bodies measured neither way
+    have no baseline; a baseline that cannot be computed is a line in ``notes``.
+    """
+    grav = condition_gravity(trials)
+    means = {}
+    for label, bodies in conditions.items():
+        fast = trials[(trials["condition"] == label) & (trials["kind"] == "fast")]
+        if len(fast) and label in grav:
+            means[frozenset(bodies)] = (float(fast["inertia"].mean()), grav[label])
+    out = {}
+    for name, prior in priors.items():
+        target = means.get(frozenset([name]))
+        if target is None:
+            for key, (i_b, g_b) in means.items():
+                rest = key - {name}
+                if name in key and rest in means:
+                    i_a, g_a = means[rest]
+                    target = (i_b - i_a, g_b - g_a)
+                    break
+        if target is None or target[0] <= 0 or target[1] <= 0:
+            continue
+        try:
+            out[name] = paper_baseline(
+                inertia=target[0],
+                gravity_moment=target[1],
+                nominal=prior.nominal,
+                lower=prior.lower,
+                upper=prior.upper,
+                gravity=gravity,
+            )
+        except InputError as exc:
+            if notes is not None:
+                notes.append(f"baseline of '{name}' not computed: {exc}")
+    return out
+
+
+def analyse_study(
+    study: Study | str | Path,
+    *,
+    seed: int = 0,
+    hdi_prob: float = 0.95,
+    echo: Callable[[str], None] | None = None,
+) -> Result:
+    """Process every trial and sample the joint posterior (nothing written).
+
+    Parameters
+    ----------
+    study : Study or path
+        A loaded manifest or the path of one.
+    seed : int
+        Seed of every random draw.
+    hdi_prob : float
+        Probability of the highest-density intervals of the comparison table.
+    echo : callable, optional
+        Receives one progress line per stage.
+
+    Returns
+    -------
+    Result
+    """
+    check_probability(hdi_prob, "hdi_prob")
+    if not isinstance(study, Study):
+        study = load_study(study)
+    say = echo or (lambda _msg: None)
+    priors = study_priors(study)
+    ideals = study_ideals(study)
+    processed = process_study(study, echo=say)
+    model = Model(priors, condition_evidence(processed), gravity=study.gravity)
+    say(f"sampling the joint posterior of {len(priors)} bodies")
+    inputs: dict[str, Any] = {
+        "manifest": str(study.path),
+        "name": study.name,
+        "conditions": {k: list(v) for k, v in study.conditions.items()},
+        "ideals": ideals,
+        "warnings": processed.warnings,
+        "trials": processed.trials.to_dict(orient="list"),
+    }
+    post = fit(model, seed=seed, inputs=inputs)
+    notes = list(processed.warnings)
+    trials = processed.trials
+    baselines = paper_baselines(
+        trials, study.conditions, priors, gravity=study.gravity, notes=notes
+    )
+    return make_result(
+        name=study.name,
+        posterior=post,
+        priors=priors,
+        gravity=study.gravity,
+        hdi_prob=hdi_prob,
+        trials=trials,
+        speed_effect=speed_effect(trials[trials["kind"] == "fast"]),
+        traces=processed.traces,
+        conditions=study.conditions,
+        ideals=ideals,
+        baselines=baselines,
+        warnings=notes,
+        manifest=str(study.path),
+    )
+
+
+def run_study(
+    manifest: str | Path,
+    *,
+    out: str | Path,
+    seed: int = 0,
+    hdi_prob: float = 0.95,
+    formats: tuple[str, ...] = ("pdf", "png"),
+    echo: Callable[[str], None] = print,
+    progress: Callable[[str], None] | None = None,
+) -> Result:
+    """``inertiafit run``: the whole pipeline, outputs written to ``out`` (replaced whole)."""
+    say = progress or (lambda msg: print(msg, file=sys.stderr))
+    result = analyse_study(manifest, seed=seed, hdi_prob=hdi_prob, echo=say)
+    say(f"writing {out}")
+    with output_folder(out) as folder:
+        write_outputs(folder, result, formats=formats)
+    echo(result.posterior.report(hdi_prob))
+    for w in result.warnings:
+        echo(f"warning: {w}")
+    return result

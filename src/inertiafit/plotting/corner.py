@@ -1,0 +1,148 @@
+"""The corner-plot engine: a corner plot of arrays in the house style, with prior boxes.
+
+:func:`corner_figure` knows nothing of posteriors: it takes one array of draws per dimension
+with labels, axis ranges, prior-box bounds and prior draws. :meth:`Posterior.corner
+<inertiafit.posterior.Posterior.corner>` and :func:`inertiafit.report.plots.plot_joint_corner`
+gather those from a posterior.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from inertiafit.plotting import raster
+from inertiafit.plotting.style import (
+    PALETTE,
+    PRIOR_COLOUR,
+    figure_width,
+    new_figure,
+    style_context,
+)
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["corner_figure"]
+
+
+def corner_figure(
+    columns: Sequence[np.ndarray],
+    *,
+    labels: Sequence[str],
+    titles: Sequence[str],
+    ranges: Sequence[tuple[float, float]],
+    boxes: Sequence[tuple[float, float] | None],
+    priors: Sequence[np.ndarray | None],
+    truths: Sequence[float | None] | None = None,
+    quantiles: Sequence[float] = (0.16, 0.5, 0.84),
+    note: str = "",
+    fig: Figure | None = None,
+    width="double",
+    **corner_kwargs,
+) -> Figure:
+    """Corner plot in the house style, with prior-box edges and prior marginals.
+
+    The engine behind :meth:`inertiafit.posterior.Posterior.corner` and
+    :func:`inertiafit.report.plots.plot_joint_corner`; use those.
+
+    Parameters
+    ----------
+    columns : sequence of ndarray
+        Draws per dimension, each of shape ``(nsamples,)``.
+    labels, titles : sequence of str
+        Axis labels (with units) and 1-D panel titles per dimension.
+    ranges : sequence of (float, float)
+        Axis limits per dimension.
+    boxes : sequence of (float, float) or None
+        Prior-box bounds per dimension (dashed lines where inside the axes), or None.
+    priors : sequence of ndarray or None
+        Prior draws per dimension, histogrammed in grey on the diagonal, scaled to the
+        posterior's number of draws; or None.
+    truths : sequence of float or None, optional
+        Known values drawn as lines; None entries are skipped.
+    quantiles : sequence of float
+        Quantiles marked on the diagonal.
+    note : str
+        Text in the top right corner.
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into; without a layout engine (corner.py sets the margins).
+    width : {"single", "double"} or float
+        Figure width (and height: the figure is square).
+    **corner_kwargs
+        Passed on to :func:`corner.corner`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import corner
+
+    data = np.column_stack(columns)
+    k = data.shape[1]
+    w = figure_width(width)
+    bins = int(corner_kwargs.pop("bins", 30))
+    kwargs: dict[str, Any] = {
+        "labels": list(labels),
+        "titles": list(titles),
+        "quantiles": list(quantiles),
+        "show_titles": True,
+        "title_fmt": ".3g",
+        "range": list(ranges),
+        "bins": bins,
+        "smooth": 0.8,
+        "color": PALETTE[0],
+        "truth_color": PALETTE[1],
+        "max_n_ticks": 4,
+        "labelpad": 0.12,
+        "hist_kwargs": {"lw": 0.9},
+        "contour_kwargs": {"linewidths": 0.7},
+    }
+    if truths is not None and any(t is not None for t in truths):
+        kwargs["truths"] = list(truths)
+    kwargs.update(corner_kwargs)
+    with style_context():
+        fig = new_figure(fig, (w, w), layout=None)
+        fig = corner.corner(data, fig=fig, **kwargs)
+        for ax in fig.axes:
+            raster.density_as_image(ax)
+        # corner.py sizes margins and places labels (in axes fractions) for 2-in panels; at
+        # journal sizes that puts labels off the figure, so fix both in inches.
+        lines = max(1, *(str(lab).count("\n") + 1 for lab in kwargs["labels"] or [""]))
+        lb, right, space = min(0.3, (0.5 + 0.14 * lines) / w), 0.985, 0.06
+        fig.subplots_adjust(left=lb, bottom=lb, right=right, top=1 - 0.3 / w, wspace=space,
+                            hspace=space)  # fmt: skip
+        axes = np.asarray(fig.axes).reshape(k, k)
+        panel = (right - lb) * w / (k + (k - 1) * space)
+        for ax in axes[-1, :]:
+            ax.xaxis.set_label_coords(0.5, -0.4 / panel)
+        for ax in axes[1:, 0]:
+            ax.yaxis.set_label_coords(-0.4 / panel, 0.5)
+        for ax in fig.axes:
+            raster.drop_hidden_points(ax)
+        edge = {"color": PRIOR_COLOUR, "ls": (0, (3, 2)), "lw": 0.8, "clip_on": False}
+        rng = kwargs["range"]
+        for i in range(k):
+            ax = axes[i, i]
+            prior = priors[i]
+            if prior is not None:
+                edges = np.linspace(float(min(rng[i])), float(max(rng[i])), bins + 1)
+                counts, _ = np.histogram(prior, bins=edges)
+                scaled = counts * data.shape[0] / max(1, len(prior))
+                ax.stairs(scaled, edges, color=PRIOR_COLOUR, lw=0.7)
+                ax.set_ylim(0, max(ax.get_ylim()[1], 1.1 * float(scaled.max(initial=0.0))))
+            for j in range(i + 1):
+                for b, vertical in ((boxes[j], True), (boxes[i], False)):
+                    if b is None or (i == j and not vertical):
+                        continue
+                    dim = j if vertical else i
+                    lo, hi = sorted(rng[dim])
+                    for v in b:
+                        if lo <= v <= hi:
+                            line = axes[i, j].axvline if vertical else axes[i, j].axhline
+                            line(v, **edge)
+        if note:
+            fig.text(0.98, 0.98, note, ha="right", va="top", fontsize=8)
+    return fig

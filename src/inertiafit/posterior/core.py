@@ -1,0 +1,304 @@
+"""The posterior of a fit: an ArviZ DataTree with a table, a corner plot and a text report.
+
+Groups of the tree (ArviZ 1.x conventions, walkers as chains):
+
+``posterior``
+    ``mass`` (kg), ``com_distance`` (m), ``radius_of_gyration`` (m), ``inertia`` (kg m^2,
+    about the joint) and ``gravity_moment`` (N m), each ``(chain, draw, body)``.
+``sample_stats``
+    ``lp``: log posterior density of the sampled coordinates (up to a constant).
+``log_likelihood``
+    ``inertia`` and ``gravity_moment``: one term per condition's evidence.
+``observed_data``
+    The trial values (or the single summarised value) per condition.
+``prior``
+    Draws from the prior boxes, for prior-versus-posterior comparisons.
+``constant_data``
+    The prior box (``nominal``, ``lower``, ``upper`` per body and parameter), the evidence as
+    used (``center``, ``scale``, ``df`` per condition and observable) and ``gravity``.
+
+Root attributes hold the provenance: versions, seed, sampler settings and diagnostics, inputs.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from inertiafit._checks import check_probability
+from inertiafit.errors import InputError
+from inertiafit.io.outputs import write_csv
+from inertiafit.physics import PARAMETERS, REPORTED, SYMBOLS
+from inertiafit.posterior import display
+
+__all__ = [
+    "SUMMARY_COLUMNS",
+    "Posterior",
+    "identification_verdict",
+    "inputs_json",
+    "open_posterior",
+]
+SUMMARY_COLUMNS = [
+    "body",
+    "parameter",
+    "mean",
+    "sd",
+    "median",
+    "hdi_lower",
+    "hdi_upper",
+    "hdi_prob",
+    "ess_bulk",
+    "ess_tail",
+    "r_hat",
+]
+
+
+def identification_verdict(ratio: float) -> str:
+    """Who decides a parameter: ``data`` (posterior SD < 0.3 prior SD), ``prior`` (> 0.7), or both."""
+    if ratio < 0.3:
+        return "data"
+    if ratio > 0.7:
+        return "prior"
+    return "data + prior"
+
+
+class Posterior:
+    """Result of a fit.
+
+    Attributes
+    ----------
+    tree : xarray.DataTree
+        Everything: draws, evidence, prior box, diagnostics, provenance (see module docs).
+    bodies : tuple of str
+        Body names, in order.
+    """
+
+    def __init__(self, tree: xr.DataTree) -> None:
+        self.tree = tree
+        self._cache: dict[tuple, pd.DataFrame] = {}  # tables are read-only views of the tree
+        self.bodies = tuple(str(b) for b in np.asarray(tree["posterior"]["body"]).tolist())
+
+    # -- access ---------------------------------------------------------------------------
+    @property
+    def attrs(self) -> dict[str, Any]:
+        """Provenance attributes of the root of the tree."""
+        return {str(k): v for k, v in self.tree.attrs.items()}
+
+    @property
+    def converged(self) -> bool:
+        """Whether the sampler met every convergence criterion."""
+        return bool(int(self.tree.attrs.get("converged", 0)))
+
+    def draws(self, body: str, parameter: str, group: str = "posterior") -> np.ndarray:
+        """Draws of one parameter of one body, shape ``(chain, draw)``."""
+        return np.asarray(self.tree[group][parameter].sel(body=body).values)
+
+    def prior_values(self, body: str, key: str) -> dict[str, float]:
+        """The prior's ``nominal``, ``lower`` or ``upper`` value of each parameter (SI units)."""
+        cd = self.tree["constant_data"][key]
+        return {p: float(cd.sel(body=body, parameter=p)) for p in PARAMETERS}
+
+    def prior_box(self, body: str) -> dict[str, tuple[float, float]]:
+        """The prior's bounds ``(lower, upper)`` of each parameter of ``body`` (SI units)."""
+        lower, upper = self.prior_values(body, "lower"), self.prior_values(body, "upper")
+        return {p: (lower[p], upper[p]) for p in PARAMETERS}
+
+    # -- tables ---------------------------------------------------------------------------
+    def summary(self, hdi_prob: float = 0.95) -> pd.DataFrame:
+        """Table of a row per body and parameter (columns as ``summary.csv``).
+
+        Parameters
+        ----------
+        hdi_prob : float
+            Probability mass of the highest-density interval.
+        """
+        check_probability(hdi_prob, "hdi_prob")
+        key = ("summary", float(hdi_prob))
+        if key not in self._cache:
+            self._cache[key] = self._summary(hdi_prob)
+        return self._cache[key].copy()
+
+    def _summary(self, hdi_prob: float) -> pd.DataFrame:
+        from arviz_stats import ess, hdi, rhat
+
+        rows = []
+        for body in self.bodies:
+            for p in REPORTED:
+                x = self.draws(body, p)
+                lo, hi = (float(v) for v in hdi(x.ravel(), prob=hdi_prob))
+                rows.append(
+                    {
+                        "body": body,
+                        "parameter": p,
+                        "mean": float(x.mean()),
+                        "sd": float(x.std(ddof=1)),
+                        "median": float(np.median(x)),
+                        "hdi_lower": lo,
+                        "hdi_upper": hi,
+                        "hdi_prob": hdi_prob,
+                        "ess_bulk": float(ess(x, method="bulk")),
+                        "ess_tail": float(ess(x, method="tail", prob=(0.05, 0.95))),
+                        "r_hat": float(rhat(x)),
+                    }
+                )
+        return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
+
+    def identification(self) -> pd.DataFrame:
+        """Posterior SD over prior SD per body and parameter, with who decides it.
+
+        A ratio near 0 means the data pin the parameter; near 1 the posterior is as wide as
+        the prior box, so only the prior speaks. ``minimum_mass`` is the bound
+        ``(M_g/g)^2 / I`` at the posterior medians.
+        """
+        if ("identification",) not in self._cache:
+            self._cache[("identification",)] = self._identification()
+        return self._cache[("identification",)].copy()
+
+    def _identification(self) -> pd.DataFrame:
+        rows = []
+        g = float(self.tree["constant_data"]["gravity"])
+        for body in self.bodies:
+            i_med = float(np.median(self.draws(body, "inertia")))
+            mg_med = float(np.median(self.draws(body, "gravity_moment")))
+            for p in REPORTED:
+                post = float(self.draws(body, p).std())
+                prior = float(self.draws(body, p, "prior").std())
+                ratio = post / prior
+                rows.append(
+                    {
+                        "body": body,
+                        "parameter": p,
+                        "posterior_sd": post,
+                        "prior_sd": prior,
+                        "sd_ratio": ratio,
+                        "identified_by": identification_verdict(ratio),
+                        "minimum_mass": (mg_med / g) ** 2 / i_med,
+                    }
+                )
+        return pd.DataFrame(rows)
+
+    def write_summary(self, path: str | Path, hdi_prob: float = 0.95) -> Path:
+        """Write :meth:`summary` as CSV with fixed formatting (same draws → same bytes)."""
+        path = Path(path)
+        return write_csv(self.summary(hdi_prob), path)
+
+    # -- files ----------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Write the whole tree to netCDF (HDF5 via h5netcdf)."""
+        path = Path(path)
+        self.tree.to_netcdf(path, engine="h5netcdf")
+        return path
+
+    # -- plots ----------------------------------------------------------------------------
+    def corner(
+        self,
+        body: str | None = None,
+        *,
+        parameters: tuple[str, ...] = REPORTED,
+        truths: dict[str, float] | None = None,
+        quantiles: tuple[float, ...] = (0.16, 0.5, 0.84),
+        prior_box: bool = True,
+        fig=None,
+        width: str | float = "double",
+        **corner_kwargs,
+    ):
+        """Corner plot of one body's posterior, in the house style of :mod:`inertiafit.plotting`.
+
+        Parameters
+        ----------
+        body : str, optional
+            Which body; required when there are several.
+        parameters : tuple of str
+            Quantities to show (default: the three parameters and ``inertia``,
+            ``gravity_moment``).
+        truths : dict of str to float, optional
+            Known values (SI units) drawn as lines, e.g. an ideal body's.
+        quantiles : tuple of float
+            Quantiles marked on the 1-D histograms.
+        prior_box : bool
+            Set the axes of ``mass``, ``com_distance`` and ``radius_of_gyration`` to the prior
+            bounds, so one sees where the posterior sits inside the box; the box edges are
+            drawn dashed (on the frame unless ``range=`` widens the axes) and the prior's
+            marginals in grey on the diagonal.
+        fig : matplotlib.figure.Figure, optional
+            Figure to draw into (a new one, not managed by pyplot, by default).
+        width : {"single", "double"} or float
+            Width and height of a new figure: 3.5 in, 7.0 in or inches.
+        **corner_kwargs
+            Passed on to :func:`corner.corner`.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from inertiafit.plotting import axis_label, corner_figure
+
+        if body is None:
+            if len(self.bodies) != 1:
+                raise ValueError(f"choose a body: one of {', '.join(self.bodies)}")
+            body = self.bodies[0]
+        columns = [self.draws(body, p).ravel() for p in parameters]
+        bounds = self.prior_box(body)
+        ranges, boxes = [], []
+        for p, x in zip(parameters, columns, strict=True):
+            box = bounds[p] if prior_box and p in PARAMETERS else None
+            if box is None:
+                lo, hi = np.quantile(x, [0.001, 0.999])
+                pad = 0.1 * (hi - lo)
+                ranges.append((float(lo - pad), float(hi + pad)))
+            else:
+                ranges.append(box)
+            boxes.append(box)
+        return corner_figure(
+            columns,
+            labels=[axis_label(p) for p in parameters],
+            titles=[SYMBOLS[p] for p in parameters],
+            ranges=ranges,
+            boxes=boxes,
+            priors=[self.draws(body, p, "prior").ravel() for p in parameters],
+            truths=[truths.get(p) for p in parameters] if truths else None,
+            quantiles=quantiles,
+            note=body,
+            fig=fig,
+            width=width,
+            **corner_kwargs,
+        )
+
+    # -- display (text and HTML in inertiafit.posterior.display) -------------------------
+    def report(self, hdi_prob: float = 0.95) -> str:
+        """Readable text: the table with intervals, who identifies what, diagnostics."""
+        return display.text_report(self, hdi_prob)
+
+    def __str__(self) -> str:
+        return self.report()
+
+    def __repr__(self) -> str:
+        return f"<inertiafit.Posterior bodies={list(self.bodies)} converged={self.converged}>"
+
+    def _repr_html_(self) -> str:
+        return display.html_table(self, 0.95)
+
+
+def open_posterior(path: str | Path) -> Posterior:
+    """Re-open a saved ``posterior.nc`` (fully loaded; the file is closed afterwards)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: posterior file not found")
+    try:
+        with xr.open_datatree(path, engine="h5netcdf") as tree:
+            loaded = tree.load()
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable posterior file ({exc})") from None
+    if "posterior" not in loaded.children:
+        raise InputError(f"{path}: no 'posterior' group; not written by inertiafit")
+    return Posterior(loaded)
+
+
+def inputs_json(value: Any) -> str:
+    """Stable JSON text for provenance attributes."""
+    return json.dumps(value, sort_keys=True, default=str)

@@ -1,0 +1,106 @@
+"""Text and HTML display of a :class:`~inertiafit.posterior.Posterior`.
+
+:func:`text_report` is what ``print(post)`` and the command line show; :func:`html_table` is
+the Jupyter display. Both read the posterior's summary and identification tables only.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from typing import TYPE_CHECKING, Any
+
+from inertiafit.physics import UNITS
+
+if TYPE_CHECKING:
+    from inertiafit.posterior.core import Posterior
+
+__all__ = ["html_table", "table_rows", "text_report"]
+
+
+def table_rows(post: Posterior, hdi_prob: float) -> list[dict[str, Any]]:
+    """Summary rows with who identifies each quantity (``identified_by``, ``sd_ratio``)."""
+    s = post.summary(hdi_prob)
+    ident = post.identification()
+    return [
+        {**r.to_dict(), "identified_by": q["identified_by"], "sd_ratio": q["sd_ratio"]}
+        for (_, r), (_, q) in zip(s.iterrows(), ident.iterrows(), strict=True)
+    ]
+
+
+def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
+    """Readable text: the table with intervals, who identifies what, diagnostics."""
+    a = post.tree.attrs
+    pct = f"{100 * hdi_prob:g}% HDI"
+    width = max(6, *(len(b) for b in post.bodies)) + 2
+    lines = [
+        f"inertiafit posterior: {len(post.bodies)} body(ies); {a.get('n_walkers')} walkers x "
+        f"{post.tree['posterior'].sizes['draw']} draws kept of {a.get('n_steps')} steps; "
+        f"tau {float(a.get('tau_max', math.nan)):.1f} steps; seed {a.get('seed')}; "
+        + ("converged" if post.converged else "NOT CONVERGED"),
+        (
+            f"{'body':<{width}}{'parameter':<28}{'median':>10}  {pct:<24}{'sd':>10}  "
+            f"{'R-hat':>6} {'ESS':>6}  identified by (post/prior SD)"
+        ),
+    ]
+    for r in table_rows(post, hdi_prob):
+        p = r["parameter"]
+        name = f"{p} [{UNITS[p]}]"
+        interval = f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]"
+        lines.append(
+            f"{r['body']:<{width}}{name:<28}{r['median']:>10.4g}  {interval:<24}{r['sd']:>10.3g}  "
+            f"{r['r_hat']:>6.3f} {r['ess_bulk']:>6.0f}  {r['identified_by']} "
+            f"({r['sd_ratio']:.2f})"
+        )
+    ident = post.identification()
+    for body in post.bodies:
+        mmin = float(ident.loc[ident.body == body, "minimum_mass"].iloc[0])
+        lines.append(
+            f"{body}: the data identify m x and I; physical consistency needs "
+            f"m >= (M_g/g)^2/I = {mmin:.4g} kg"
+        )
+    return "\n".join(lines)
+
+
+_HTML_HEAD = (
+    "body",
+    "parameter",
+    "unit",
+    "median",
+    "95% HDI",
+    "sd",
+    "R-hat",
+    "ESS bulk",
+    "identified by",
+)
+
+
+def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
+    """An HTML table of the summary with who identifies what (the Jupyter display)."""
+    head = "".join(f"<th>{h}</th>" for h in _HTML_HEAD).replace(
+        "95% HDI", f"{100 * hdi_prob:g}% HDI"
+    )
+    body = "".join(
+        "<tr>"
+        + "".join(
+            f"<td>{html.escape(str(v))}</td>"
+            for v in (
+                r["body"],
+                r["parameter"],
+                UNITS[r["parameter"]],
+                f"{r['median']:.4g}",
+                f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]",
+                f"{r['sd']:.3g}",
+                f"{r['r_hat']:.3f}",
+                f"{r['ess_bulk']:.0f}",
+                f"{r['identified_by']} ({r['sd_ratio']:.2f})",
+            )
+        )
+        + "</tr>"
+        for r in table_rows(post, hdi_prob)
+    )
+    status = "converged" if post.converged else "<b>not converged</b>"
+    return (
+        f"<div><p><b>inertiafit posterior</b> ({status}, seed {post.tree.attrs.get('seed')})"
+        f"</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>"
+    )

@@ -1,0 +1,18 @@
+"""Outputs of a result: tables, figures, ``report.html`` and terminal text.
+
+- :mod:`~inertiafit.report.result`: :class:`Result`, the plain data every output is drawn from;
+- :mod:`~inertiafit.report.comparison`: the one comparison table (prior, ideal, posterior,
+  the paper's estimator);
+- :mod:`~inertiafit.report.tables`: CSV, Markdown and LaTeX tables;
+- :mod:`~inertiafit.report.plots`: the study's and posterior's figures;
+- :mod:`~inertiafit.report.html`: the self-contained ``report.html``;
+- :mod:`~inertiafit.report.text`: comparison tables for the terminal;
+- :mod:`~inertiafit.report.outputs`: every output file of a result into a folder.
+
+Nothing here samples or reads trial files: the pipeline builds a :class:`Result`, the report
+draws it.
+"""
+
+from __future__ import annotations
+
+__all__: list[str] = []

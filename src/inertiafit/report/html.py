@@ -1,0 +1,272 @@
+"""A self-contained ``report.html``: tables and figures embedded, readable without a network.
+
+:func:`write_report` writes any page of sections; :func:`study_report` lays out the page of a
+:class:`~inertiafit.report.result.Result` (posterior, comparison, corner plots, identification
+curves, trials, speed effect, diagnostics, provenance).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import pandas as pd
+
+from inertiafit.report.result import Result
+from inertiafit.report.tables import comparison_display, speed_effect_display, summary_display
+
+__all__ = ["figure_png", "figure_png_base64", "study_report", "table_html", "write_report"]
+
+_STYLE = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
+h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; }
+table { border-collapse: collapse; font-size: 0.85em; margin: 0.5em 0 1.5em; }
+th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: right; }
+th { background: #f4f4f4; } td:first-child, th:first-child { text-align: left; }
+figure { margin: 1em 0; } img { max-width: 100%; border: 1px solid #eee; }
+.note { color: #555; font-size: 0.9em; } pre { background: #f8f8f8; padding: 0.6em; }
+.warn { color: #a33; }
+"""
+
+
+def figure_png(fig, dpi: int = 110) -> bytes:
+    """PNG of a Matplotlib figure, for embedding."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
+def figure_png_base64(fig, dpi: int = 110) -> str:
+    """PNG of a Matplotlib figure as base64 text, for embedding."""
+    return base64.b64encode(figure_png(fig, dpi)).decode("ascii")
+
+
+def table_html(frame: pd.DataFrame, digits: int = 4) -> str:
+    """An HTML table with numbers rounded to ``digits`` significant figures."""
+
+    def fmt(v):
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.{digits}g}"
+        return html.escape(str(v))
+
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
+    rows = "".join(
+        "<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
+        for row in frame.itertuples(index=False)
+    )
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
+
+
+def write_report(
+    path: str | Path,
+    *,
+    title: str,
+    sections: list[tuple[str, list]],
+    notes: Mapping[str, object] | None = None,
+) -> Path:
+    """Write a self-contained HTML report.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Where to write ``report.html``.
+    title : str
+        Page title.
+    sections : list of (heading, items)
+        Items are :class:`pandas.DataFrame` (a table), Matplotlib figures or PNG bytes (embedded),
+        ``("caption", figure)`` pairs, or strings (a paragraph; ``pre:`` prefix for
+        preformatted text, ``warn:`` for a warning).
+    notes : mapping, optional
+        Key-value pairs listed at the end (inputs, versions, seed).
+    """
+    parts = [
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
+        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1>",
+    ]
+    for heading, items in sections:
+        parts.append(f"<h2>{html.escape(heading)}</h2>")
+        for entry in items:
+            caption, item = entry if isinstance(entry, tuple) else ("", entry)
+            if isinstance(item, pd.DataFrame):
+                parts.append(table_html(item))
+            elif isinstance(item, str):
+                if item.startswith("pre:"):
+                    parts.append(f"<pre>{html.escape(item[4:])}</pre>")
+                elif item.startswith("warn:"):
+                    parts.append(f"<p class='warn'>{html.escape(item[5:])}</p>")
+                else:
+                    parts.append(f"<p class='note'>{html.escape(item)}</p>")
+            else:
+                data = (
+                    base64.b64encode(item).decode("ascii")
+                    if isinstance(item, bytes)
+                    else figure_png_base64(item)
+                )
+                parts.append(
+                    f"<figure><img alt='{html.escape(caption or heading)}' "
+                    f"src='data:image/png;base64,{data}'>"
+                    + (
+                        f"<figcaption class='note'>{html.escape(caption)}</figcaption>"
+                        if caption
+                        else ""
+                    )
+                    + "</figure>"
+                )
+    if notes:
+        parts.append("<h2>Inputs and provenance</h2><table><tbody>")
+        for k, v in notes.items():
+            parts.append(
+                f"<tr><td>{html.escape(k)}</td><td style='text-align:left'>"
+                f"{html.escape(str(v))}</td></tr>"
+            )
+        parts.append("</tbody></table>")
+    # Records, once the page has loaded, how many embedded figures the browser decoded; a
+    # headless-browser test reads it back (nothing is fetched: the page stays offline).
+    parts.append(
+        "<script>window.addEventListener('load', function () { var n = 0;"
+        " for (var i = 0; i < document.images.length; i++) {"
+        " if (document.images[i].complete && document.images[i].naturalWidth > 0) { n++; } }"
+        " document.body.setAttribute('data-figures-drawn', String(n)); });</script>"
+    )
+    parts.append("</body></html>")
+    path = Path(path)
+    path.write_text("\n".join(parts), encoding="utf-8")
+    return path
+
+
+def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob: float) -> Path:
+    """The self-contained ``report.html``: tables, embedded figures, diagnostics, provenance."""
+    post = result.posterior
+    a = post.attrs
+    diag = (
+        f"{a['n_walkers']} walkers, {a['n_steps']} steps ({a['burn']} dropped as burn-in), "
+        f"integrated autocorrelation time tau at most {a['tau_max']:.2f} steps, acceptance "
+        f"{a['acceptance']:.2f}, sampling {a['sampling_seconds']:.1f} s; "
+        + (
+            "converged (chain > 50 tau, R-hat <= 1.01, bulk ESS >= 1000 for every quantity)."
+            if post.converged
+            else "NOT converged: treat the intervals with care."
+        )
+    )
+    summary = post.summary(hdi_prob)
+    fig = lambda stem, caption: [(caption, figures[stem])] if stem in figures else []
+    sections: list[tuple[str, list]] = [
+        (
+            "Posterior",
+            [
+                (
+                    f"Median and {100 * hdi_prob:g}% highest-density interval of every body's parameters "
+                    "from one joint posterior over all conditions. 'identified by' compares the "
+                    "posterior's SD with the prior's: data < 0.3 <= data + prior <= 0.7 < prior."
+                ),
+                summary_display(summary),
+                "pre:" + post.report(hdi_prob),
+            ],
+        ),
+        (
+            "Comparison with ideal bodies and the paper's estimator",
+            [
+                (
+                    "ideal: textbook model declared in the manifest; paper's baseline: the multi-start "
+                    "least squares of Son et al. Eq. (4), feasible-region mean (a body added to another "
+                    "is fitted to the difference of the condition means, as the paper does)."
+                ),
+                comparison_display(result.comparison, hdi_prob),
+            ],
+        ),
+        (
+            "Corner plots",
+            [
+                *[
+                    item
+                    for b in post.bodies
+                    for item in fig(
+                        "corner" if result.from_numbers else f"corner-{b}",
+                        f"{b}: axes of m, x and rho span the prior box"
+                        + ("; lines: ideal body" if b in result.ideals else ""),
+                    )
+                ],
+                *fig("corner-joint", "all bodies together"),
+            ],
+        ),
+        (
+            "Identification curves",
+            [
+                (
+                    "Rotation about one axis identifies only m x = M_g/g and I = m (rho^2 + x^2): the "
+                    "bodies that fit the data lie on a curve; the prior box decides where on it."
+                ),
+                *[
+                    item
+                    for b in post.bodies
+                    for item in fig(
+                        f"identification-{b}",
+                        f"{b}: posterior draws, the curve at the posterior "
+                        "medians, the prior box and the paper's per-start solutions",
+                    )
+                ],
+            ],
+        ),
+    ]
+    if len(result.trials):
+        sections.append(
+            (
+                "Trials",
+                [
+                    *[
+                        item
+                        for c in result.conditions
+                        for item in fig(
+                            f"fast-trials-{c}",
+                            f"{c}: filtered velocity and acceleration of the fast "
+                            "trials; shaded: the detected uniform-acceleration window",
+                        )
+                    ],
+                    *fig("inertia-by-speed", "inertia per trial and speed (mean ± SD)"),
+                    *(
+                        []
+                        if len(result.traces)
+                        else [
+                            (
+                                "Trial traces not drawn: this output folder has no traces.csv "
+                                "(it is written when the posterior is sampled)."
+                            )
+                        ]
+                    ),
+                    result.trials,
+                ],
+            )
+        )
+        sections.append(
+            ("Speed effect", [speed_effect_display(result.speed_effect), result.speed_effect])
+        )
+    sections.append(
+        (
+            "Diagnostics",
+            [
+                diag,
+                post.identification(),
+                *[
+                    item
+                    for b in post.bodies
+                    for item in fig(f"trace-{b}", f"{b}: walker traces")
+                    + fig(f"rank-{b}", f"{b}: rank plots")
+                ],
+                *(["warn:" + w for w in result.warnings] or ["No trial flags."]),
+            ],
+        )
+    )
+    notes = {
+        "study": result.name,
+        "manifest": result.manifest,
+        "seed": a.get("seed"),
+        "gravity (m/s^2)": result.gravity,
+        "versions": a.get("versions"),
+        "sampled coordinates": a.get("sampled_coordinates"),
+    }
+    return write_report(path, title=f"inertiafit: {result.name}", sections=sections, notes=notes)

@@ -1,0 +1,57 @@
+"""Figures of a study and of a posterior, sized for journal columns.
+
+One module per kind of figure: :mod:`~inertiafit.report.plots.trials` (fast trials, inertia by
+speed), :mod:`~inertiafit.report.plots.identification` (the identification curve),
+:mod:`~inertiafit.report.plots.diagnostics` (traces, rank plots) and
+:mod:`~inertiafit.report.plots.corner` (the joint corner plot). Posterior figures take a
+:class:`inertiafit.posterior.Posterior` (walkers are the ``chain`` dimension of its tree) and a
+body name. The house style, sizes and saving come from :mod:`inertiafit.plotting` and are
+re-exported here, so ``plots.save_figure`` and ``plots.corner_figure`` work as well.
+``docs/figures.md`` says how to read each figure.
+"""
+
+from __future__ import annotations
+
+from inertiafit.plotting.corner import corner_figure
+from inertiafit.plotting.style import (
+    DOUBLE_COLUMN,
+    FIGURE_FORMATS,
+    PALETTE,
+    PRIOR_COLOUR,
+    SINGLE_COLUMN,
+    STYLE,
+    axis_label,
+    check_formats,
+    figure_width,
+    new_figure,
+    save_figure,
+    style_context,
+)
+from inertiafit.report.plots.corner import plot_joint_corner
+from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
+from inertiafit.report.plots.identification import CURVE_PAIRS, plot_identification_curve
+from inertiafit.report.plots.trials import plot_fast_trials, plot_inertia_by_speed
+
+__all__ = [
+    "CURVE_PAIRS",
+    "DOUBLE_COLUMN",
+    "FIGURE_FORMATS",
+    "PALETTE",
+    "PRIOR_COLOUR",
+    "SINGLE_COLUMN",
+    "STYLE",
+    "axis_label",
+    "check_formats",
+    "corner_figure",
+    "figure_width",
+    "new_figure",
+    "plot_fast_trials",
+    "plot_identification_curve",
+    "plot_inertia_by_speed",
+    "plot_joint_corner",
+    "plot_rank",
+    "plot_trace",
+    "rank_groups",
+    "save_figure",
+    "style_context",
+]

@@ -1,0 +1,114 @@
+"""The joint corner plot of every body's parameters of a posterior."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from inertiafit.physics import PARAMETERS, SYMBOLS
+from inertiafit.plotting.corner import corner_figure
+from inertiafit.plotting.style import axis_label
+from inertiafit.report.plots.checks import check_body, check_parameters
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from inertiafit.posterior import Posterior
+
+__all__ = ["plot_joint_corner"]
+
+
+def plot_joint_corner(
+    posterior: Posterior,
+    *,
+    parameters: Sequence[str] = PARAMETERS,
+    truths: Mapping[str, Any] | None = None,
+    bodies: Sequence[str] | None = None,
+    quantiles: Sequence[float] = (0.16, 0.5, 0.84),
+    fig: Figure | None = None,
+    width="double",
+    **corner_kwargs,
+) -> Figure:
+    """One corner plot over every body's parameters: correlations between bodies show.
+
+    Bodies measured together (condition B = attachment + segment) share evidence, so their
+    parameters are correlated; a per-body corner hides that.
+
+    Parameters
+    ----------
+    posterior : inertiafit.posterior.Posterior
+        The fit.
+    parameters : sequence of str
+        Quantities per body (names as :func:`plot_trace`). Axes of ``mass``, ``com_distance``
+        and ``radius_of_gyration`` span that body's prior box.
+    truths : mapping of str to mapping of str to float, optional
+        Known values per body and parameter (SI units), e.g. ``{"weight": {"mass": 2.92}}``;
+        a value may also be an object with ``as_dict()``, such as an ideal body.
+    bodies : sequence of str, optional
+        Bodies to include, in order; default all.
+    quantiles : sequence of float
+        Quantiles marked on the 1-D histograms.
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into (without a layout engine).
+    width : {"single", "double"} or float
+        Figure width and height (in).
+    **corner_kwargs
+        Passed on to :func:`corner.corner`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        ``K x K`` axes, ``K = len(bodies) * len(parameters)``, labelled ``"body: m [kg]"``.
+
+    Raises
+    ------
+    ValueError
+        An unknown body or parameter.
+    """
+    params = check_parameters(parameters)
+    names = tuple(posterior.bodies if bodies is None else bodies)
+    for b in names:
+        check_body(posterior, b)
+    columns: list[np.ndarray] = []
+    priors: list[np.ndarray | None] = []
+    labels: list[str] = []
+    titles: list[str] = []
+    ranges: list[tuple[float, float]] = []
+    boxes: list[tuple[float, float] | None] = []
+    marks: list[float | None] = []
+    for b in names:
+        box = posterior.prior_box(b)
+        known = (truths or {}).get(b) or {}
+        if not isinstance(known, Mapping):  # an ideal body (inertiafit.shapes) and the like
+            known = known.as_dict()
+        for p in params:
+            x = posterior.draws(b, p).ravel()
+            columns.append(x)
+            # a long body name goes on its own line, or neighbouring labels overlap
+            labels.append(axis_label(p, b if len(b) <= 12 else f"{b}\n"))
+            titles.append(SYMBOLS[p])
+            if p in box:
+                ranges.append(box[p])
+                boxes.append(box[p])
+            else:
+                lo, hi = np.quantile(x, [0.001, 0.999])
+                ranges.append((float(lo - 0.1 * (hi - lo)), float(hi + 0.1 * (hi - lo))))
+                boxes.append(None)
+            priors.append(posterior.draws(b, p, "prior").ravel())
+            marks.append(known.get(p))
+    return corner_figure(
+        columns,
+        labels=labels,
+        titles=titles,
+        ranges=ranges,
+        boxes=boxes,
+        priors=priors,
+        truths=marks,
+        quantiles=quantiles,
+        note="axes of $m$, $x$, $\\rho$ span the prior boxes; grey: prior",
+        fig=fig,
+        width=width,
+        **corner_kwargs,
+    )

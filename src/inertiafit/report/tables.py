@@ -1,0 +1,184 @@
+"""Tables for papers: the same frame as CSV, Markdown and LaTeX (booktabs).
+
+CSV keeps every number at full precision for further work; Markdown and LaTeX are formatted for
+reading: four significant figures, intervals as ``median [lower, upper]``, units in headers.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from inertiafit.io.outputs import write_csv
+from inertiafit.physics import UNITS
+
+__all__ = [
+    "comparison_display",
+    "fmt",
+    "speed_effect_display",
+    "summary_display",
+    "to_latex",
+    "to_markdown",
+    "write_table",
+]
+
+_LATEX_SPECIAL = {
+    "&": r"\&",
+    "%": r"\%",
+    "$": r"\$",
+    "#": r"\#",
+    "_": r"\_",
+    "{": r"\{",
+    "}": r"\}",
+    "~": r"\textasciitilde{}",
+    "^": r"\^{}",
+    "\\": r"\textbackslash{}",
+}
+
+
+def fmt(value, digits: int = 4) -> str:
+    """A number with ``digits`` significant figures; blanks for NaN and None."""
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int | float):
+        if isinstance(value, float) and math.isnan(value):
+            return ""
+        return f"{value:.{digits}g}"
+    return str(value)
+
+
+def to_markdown(frame: pd.DataFrame, digits: int = 4) -> str:
+    """A GitHub-flavoured Markdown table; numeric columns right-aligned."""
+    cols = [str(c) for c in frame.columns]
+    numeric = [pd.api.types.is_numeric_dtype(frame[c]) for c in frame.columns]
+    lines = [
+        "| " + " | ".join(cols) + " |",
+        "|" + "|".join("---:" if n else ":---" for n in numeric) + "|",
+    ]
+    for row in frame.itertuples(index=False):
+        lines.append("| " + " | ".join(fmt(v, digits).replace("|", r"\|") for v in row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _tex(text: str) -> str:
+    return "".join(_LATEX_SPECIAL.get(ch, ch) for ch in text)
+
+
+def to_latex(frame: pd.DataFrame, *, caption: str = "", label: str = "", digits: int = 4) -> str:
+    r"""A LaTeX ``table`` with booktabs rules (``\usepackage{booktabs}``)."""
+    numeric = [pd.api.types.is_numeric_dtype(frame[c]) for c in frame.columns]
+    spec = "".join("r" if n else "l" for n in numeric)
+    lines = [r"\begin{table}", r"  \centering"]
+    if caption:
+        lines.append(rf"  \caption{{{_tex(caption)}}}")
+    if label:
+        lines.append(rf"  \label{{{label}}}")
+    lines += [
+        rf"  \begin{{tabular}}{{{spec}}}",
+        r"    \toprule",
+        "    " + " & ".join(_tex(str(c)) for c in frame.columns) + r" \\",
+        r"    \midrule",
+    ]
+    for row in frame.itertuples(index=False):
+        lines.append("    " + " & ".join(_tex(fmt(v, digits)) for v in row) + r" \\")
+    lines += [r"    \bottomrule", r"  \end{tabular}", r"\end{table}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_table(
+    frame: pd.DataFrame,
+    folder: Path,
+    stem: str,
+    *,
+    display: pd.DataFrame | None = None,
+    caption: str = "",
+) -> list[Path]:
+    """``stem.csv`` (full precision) plus ``stem.md`` and ``stem.tex`` (of ``display``)."""
+    folder = Path(folder)
+    shown = frame if display is None else display
+    paths = [folder / f"{stem}.csv", folder / f"{stem}.md", folder / f"{stem}.tex"]
+    write_csv(frame, paths[0])
+    paths[1].write_text(to_markdown(shown), encoding="utf-8")
+    paths[2].write_text(to_latex(shown, caption=caption, label=f"tab:{stem}"), encoding="utf-8")
+    return paths
+
+
+def _interval(median: float, lo: float, hi: float) -> str:
+    return f"{median:.4g} [{lo:.4g}, {hi:.4g}]"
+
+
+def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
+    """Readable summary: median with its HDI, mean ± SD, R-hat, ESS; units in the parameter."""
+    prob = float(summary["hdi_prob"].iloc[0]) if len(summary) else 0.95
+    return pd.DataFrame(
+        {
+            "body": summary["body"],
+            "parameter": [f"{p} [{UNITS[p]}]" for p in summary["parameter"]],
+            f"median [{100 * prob:g}% HDI]": [
+                _interval(m, lo, hi)
+                for m, lo, hi in zip(
+                    summary["median"], summary["hdi_lower"], summary["hdi_upper"], strict=True
+                )
+            ],
+            "mean ± sd": [
+                f"{m:.4g} ± {s:.2g}" for m, s in zip(summary["mean"], summary["sd"], strict=True)
+            ],
+            "R-hat": summary["r_hat"].round(3),
+            "ESS bulk": summary["ess_bulk"].round(0).astype(int),
+        }
+    )
+
+
+def comparison_display(comparison: pd.DataFrame, hdi_prob: float = 0.95) -> pd.DataFrame:
+    """The paper's Tables 2-3 with the posterior: ideal, posterior, baseline, differences."""
+
+    def pct(v):
+        return "" if math.isnan(v) else f"{100 * v:+.1f} %"
+
+    return pd.DataFrame(
+        {
+            "body": comparison["body"],
+            "parameter": [
+                f"{p} [{u}]"
+                for p, u in zip(comparison["parameter"], comparison["unit"], strict=True)
+            ],
+            "ideal": comparison["ideal"],
+            f"posterior median [{100 * hdi_prob:g}% HDI]": [
+                _interval(m, lo, hi)
+                for m, lo, hi in zip(
+                    comparison["posterior_median"],
+                    comparison["hdi_lower"],
+                    comparison["hdi_upper"],
+                    strict=True,
+                )
+            ],
+            "paper's baseline": comparison["baseline"],
+            "posterior vs ideal": [pct(v) for v in comparison["posterior_vs_ideal"]],
+            "baseline vs ideal": [pct(v) for v in comparison["baseline_vs_ideal"]],
+            "identified by (post/prior SD)": [
+                f"{who} ({r:.2f})"
+                for who, r in zip(comparison["identified_by"], comparison["sd_ratio"], strict=True)
+            ],
+        }
+    )
+
+
+def speed_effect_display(effect: pd.DataFrame) -> pd.DataFrame:
+    """Per condition and speed: n, mean ± SD, the ANOVA F and p (Tukey pairs left to the CSV)."""
+    rows = effect[effect["row"] == "speed"] if "row" in effect else effect
+    return pd.DataFrame(
+        {
+            "condition": rows["condition"],
+            "speed [°/s]": rows["speed"],
+            "n": rows["n"].astype(int),
+            "inertia [kg m^2]": [
+                f"{m:.4g} ± {s:.2g}" for m, s in zip(rows["mean"], rows["sd"], strict=True)
+            ],
+            "ANOVA F": rows["F"],
+            "p": rows["p"],
+        }
+    )

@@ -1,0 +1,353 @@
+"""The signal model: one simulated trial, with the imperfections of a real recording.
+
+Every trial follows the rigid-body model of ``docs/method.md``::
+
+    tau(t) = I alpha(t) + M_g sin(theta(t) + phi) + c
+
+sampled at 1 kHz by default, with a trapezoidal velocity profile, servo ripple, channel noise,
+a drifting torque disturbance and a quantised angle (:class:`Noise`, :class:`Motion`); see
+``docs/processing.md``, "Simulated trials". :func:`simulate_trial` returns the Trial in SI
+units.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import signal
+
+from inertiafit.io.units import DEG
+from inertiafit.physics import GRAVITY
+from inertiafit.physics import gravity_moment as _gravity_moment
+from inertiafit.physics import inertia as _inertia
+
+__all__ = ["KINDS", "Body", "Motion", "Noise", "simulate_trial"]
+
+#: The kinds of trial: a slow move for the gravity model, a fast one for the inertia.
+KINDS = ("quasi-static", "fast")
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Imperfections of a simulated recording (SI units).
+
+    Attributes
+    ----------
+    torque_sd : float
+        Standard deviation of white torque noise (N m). A Biodex analog torque output read on
+        its +-64 ft lbf range has 15-35 mV noise at 78.1 mV per ft lbf, 0.25-0.6 N m.
+    velocity_sd : float
+        Standard deviation of white velocity noise (rad/s); default 0.5 deg/s.
+    ripple : float
+        Relative amplitude of the servo's sinusoidal velocity ripple (0.005 = 0.5 % of the
+        instantaneous speed). It is real motion: the torque contains its ``I alpha``.
+    ripple_frequency : float
+        Frequency of the ripple (Hz); its phase is random per trial.
+    angle_step : float
+        Quantum of the angle channel (rad); default 0.1 deg. ``0`` leaves the angle exact.
+    drift_sd : float
+        Standard deviation of a slowly drifting torque disturbance (N m): a stationary AR(1)
+        process standing for friction, cable drag and sensor drift. It makes the residuals of
+        a quasi-static fit autocorrelated.
+    drift_time : float
+        Correlation time of the drift (s).
+    trial_offset_sd : float
+        Standard deviation of a per-trial shift of the offset ``c`` (N m), drawn once per
+        fast trial (the quasi-static trial is the reference): the sensor zero and the friction
+        are not the same in every trial. When set, it is the largest source of trial-to-trial
+        scatter of the inertia (``shift / alpha``).
+    """
+
+    torque_sd: float = 0.4
+    velocity_sd: float = 0.5 * DEG
+    ripple: float = 0.005
+    ripple_frequency: float = 10.0
+    angle_step: float = 0.1 * DEG
+    drift_sd: float = 0.03
+    drift_time: float = 0.2
+    trial_offset_sd: float = 0.0
+
+    @classmethod
+    def none(cls) -> Noise:
+        """No noise at all: exact channels (useful to test the processing arithmetic)."""
+        return cls(0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 0.5, 0.0)
+
+    @classmethod
+    def paper(cls) -> Noise:
+        """Noise with a trial-to-trial scatter like the paper's attachment (SD 0.017 kg m^2).
+
+        The channel noise alone gives a per-trial SD of the inertia near 0.0015 kg m^2; the
+        paper's 0.017 kg m^2 at 35 rad/s^2 needs a per-trial torque shift of about 0.6 N m.
+        The shift is the same in N m whatever is mounted, so the attachment + disk condition
+        gets the same 0.017 kg m^2, not the paper's 0.055.
+        """
+        return cls(trial_offset_sd=0.6)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """The commanded passive move.
+
+    Attributes
+    ----------
+    start, end : float
+        Angles (rad) where the move starts and ends; the paper's range is 0 to 90 deg.
+    acceleration : float
+        Uniform acceleration and deceleration of the servo (rad/s^2); default 2000 deg/s^2,
+        which reaches 300 deg/s in 0.15 s.
+    overshoot : float
+        Relative isokinetic overshoot after the ramp (0.05 = 5 % above the preset speed), a
+        half-sine bump of duration ``overshoot_time``; 0 for none.
+    overshoot_time : float
+        Duration of the overshoot bump (s).
+    rest : float
+        Time at rest before and after the move (s).
+    """
+
+    start: float = 0.0
+    end: float = 90.0 * DEG
+    acceleration: float = 2000.0 * DEG
+    overshoot: float = 0.0
+    overshoot_time: float = 0.04
+    rest: float = 0.2
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body's true inertial parameters (SI units)."""
+
+    mass: float
+    radius_of_gyration: float
+    com_distance: float
+
+    @property
+    def inertia(self) -> float:
+        """Moment of inertia about the joint (kg m^2)."""
+        return float(_inertia(self.mass, self.radius_of_gyration, self.com_distance))
+
+    def gravity_moment(self, gravity: float = GRAVITY) -> float:
+        """Largest gravitational moment ``m g x`` (N m)."""
+        return float(_gravity_moment(self.mass, self.com_distance, gravity))
+
+
+@dataclass(frozen=True)
+class _Profile:
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    ramp_start: float
+    ramp_end: float
+    peak_speed: float
+    extras: dict[str, float] = field(default_factory=dict)
+
+
+def _profile(
+    t: np.ndarray, speed: float, motion: Motion, ripple: float, ripple_frequency: float, phase
+) -> _Profile:
+    """Nominal trapezoidal velocity with ripple; speed (rad/s) > 0, direction from the motion."""
+    distance = abs(motion.end - motion.start)
+    direction = 1.0 if motion.end >= motion.start else -1.0
+    a = motion.acceleration
+    v = speed
+    overshoot = motion.overshoot
+    t_over = motion.overshoot_time
+    bump = overshoot * v * 2.0 * t_over / math.pi
+    t_ramp = v / a
+    t_flat = (distance - v * v / a - bump) / v
+    if overshoot and t_flat < t_over:
+        overshoot, bump = 0.0, 0.0
+        t_flat = (distance - v * v / a) / v
+    if t_flat < 0.0:  # too short a range for this speed: triangular profile
+        v = math.sqrt(a * distance)
+        t_ramp, t_flat = v / a, 0.0
+    t0 = motion.rest
+    tau = t - t0
+    up = (tau >= 0) & (tau < t_ramp)
+    flat = (tau >= t_ramp) & (tau < t_ramp + t_flat)
+    down = (tau >= t_ramp + t_flat) & (tau < 2 * t_ramp + t_flat)
+    vel = np.zeros_like(t)
+    acc = np.zeros_like(t)
+    vel[up] = a * tau[up]
+    acc[up] = a
+    vel[flat] = v
+    vel[down] = v - a * (tau[down] - t_ramp - t_flat)
+    acc[down] = -a
+    if overshoot:
+        s = tau - t_ramp
+        bumping = (s >= 0) & (s < t_over)
+        w = math.pi / t_over
+        vel[bumping] += overshoot * v * np.sin(w * s[bumping])
+        acc[bumping] += overshoot * v * w * np.cos(w * s[bumping])
+    if ripple:
+        w = 2.0 * math.pi * ripple_frequency
+        factor = 1.0 + ripple * np.sin(w * t + phase)
+        acc = acc * factor + vel * ripple * w * np.cos(w * t + phase)
+        vel = vel * factor
+    return _Profile(
+        velocity=direction * vel,
+        acceleration=direction * acc,
+        ramp_start=t0,
+        ramp_end=t0 + t_ramp,
+        peak_speed=v,
+        extras={"motion_end": t0 + 2 * t_ramp + t_flat},
+    )
+
+
+def _ar1(rng: np.random.Generator, n: int, sd: float, rho: float) -> np.ndarray:
+    """Stationary AR(1) noise of standard deviation ``sd`` and lag-one correlation ``rho``."""
+    if sd == 0.0 or n == 0:
+        return np.zeros(n)
+    e = rng.standard_normal(n)
+    zi = np.array([rho * e[0] / math.sqrt(1.0 - rho * rho)])  # start in the stationary law
+    e[0] = 0.0
+    x, _ = signal.lfilter([1.0], [1.0, -rho], e, zi=zi)
+    return sd * math.sqrt(1.0 - rho * rho) * x
+
+
+def _dataset(
+    time: np.ndarray,
+    angle: np.ndarray,
+    velocity: np.ndarray,
+    torque: np.ndarray,
+    *,
+    source: str,
+    rate: float,
+    attrs: Mapping[str, Any],
+) -> xr.Dataset:
+    """A Trial with exactly the layout of :func:`inertiafit.io.make_trial`."""
+    long = {
+        "angle": "angle of the dynamometer shaft",
+        "velocity": "angular velocity of the shaft",
+        "torque": "moment measured at the shaft",
+    }
+    units = {"angle": "rad", "velocity": "rad/s", "torque": "N m"}
+    data = {"angle": angle, "velocity": velocity, "torque": torque}
+    return xr.Dataset(
+        {
+            q: ("time", np.asarray(v, dtype=np.float64), {"units": units[q], "long_name": long[q]})
+            for q, v in data.items()
+        },
+        coords={"time": ("time", time, {"units": "s", "long_name": "time"})},
+        attrs={"source": source, "sampling_rate": float(rate), "format": "simulated", **attrs},
+    )
+
+
+def simulate_trial(
+    *,
+    inertia: float,
+    gravity_moment: float,
+    kind: str = "fast",
+    speed_deg_s: float | None = None,
+    phi: float = 0.0,
+    offset: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+    rate: float = 1000.0,
+    noise: Noise | None = None,
+    motion: Motion | None = None,
+    source: str = "simulated",
+) -> xr.Dataset:
+    """Simulate one passive dynamometer trial of a rigid body.
+
+    Parameters
+    ----------
+    inertia : float
+        Moment of inertia about the joint, summed over the mounted bodies (kg m^2).
+    gravity_moment : float
+        Largest gravitational moment ``M_g``, summed over the mounted bodies (N m).
+    kind : {"fast", "quasi-static"}
+        A fast isokinetic move, or a quasi-static one (default speed 1 deg/s).
+    speed_deg_s : float, optional
+        Preset speed (deg/s); default 1 for quasi-static and 240 for fast trials.
+    phi : float
+        Angle between the device's zero and the gravity vertical (rad).
+    offset : float
+        Constant torque offset ``c`` (N m).
+    rng : numpy.random.Generator or int, optional
+        Random source or seed.
+    rate : float
+        Sampling rate (Hz).
+    noise : Noise, optional
+        Imperfections; default :class:`Noise` ().
+    motion : Motion, optional
+        Range, acceleration, overshoot and rest; default :class:`Motion` () (0 to 90 deg).
+    source : str
+        Recorded in ``attrs["source"]``.
+
+    Returns
+    -------
+    xarray.Dataset
+        A Trial (``time`` s; ``angle`` rad, ``velocity`` rad/s, ``torque`` N m) with extra
+        attrs: ``kind``, ``speed`` (deg/s), ``true_inertia``, ``true_gravity_moment``,
+        ``true_phi``, ``true_offset`` (including any per-trial shift), ``ramp_start`` and
+        ``ramp_end`` (s, the simulated uniform-acceleration period).
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is unknown or ``speed_deg_s``, ``rate`` is not positive.
+    """
+    if kind not in KINDS:
+        msg = f"kind must be one of {KINDS}, got {kind!r}"
+        raise ValueError(msg)
+    if speed_deg_s is None:
+        speed_deg_s = 1.0 if kind == "quasi-static" else 240.0
+    if not speed_deg_s > 0 or not rate > 0:
+        msg = f"speed_deg_s and rate must be positive, got {speed_deg_s!r}, {rate!r}"
+        raise ValueError(msg)
+    rng = np.random.default_rng(rng)
+    noise = Noise() if noise is None else noise
+    motion = Motion() if motion is None else motion
+    speed = speed_deg_s * DEG
+
+    distance = abs(motion.end - motion.start)
+    duration = 2 * motion.rest + distance / speed + speed / motion.acceleration
+    duration += motion.overshoot_time if motion.overshoot else 0.0
+    n = math.ceil(duration * rate) + 1
+    t = np.arange(n) / rate
+
+    profile = _profile(
+        t, speed, motion, noise.ripple, noise.ripple_frequency, rng.uniform(0, 2 * math.pi)
+    )
+    # Angle: the integral of the true velocity (trapezoid rule, exact for the linear ramps).
+    dt = 1.0 / rate
+    theta = np.empty(n)
+    theta[0] = motion.start
+    np.cumsum(0.5 * dt * (profile.velocity[1:] + profile.velocity[:-1]), out=theta[1:])
+    theta[1:] += motion.start
+
+    # The shift is relative to the quasi-static trial, whose offset is the reference.
+    shift = 0.0
+    if noise.trial_offset_sd and kind == "fast":
+        shift = rng.normal(0.0, noise.trial_offset_sd)
+    rho = math.exp(-1.0 / (rate * noise.drift_time)) if noise.drift_time > 0 else 0.0
+    torque = (
+        inertia * profile.acceleration
+        + gravity_moment * np.sin(theta + phi)
+        + offset
+        + shift
+        + _ar1(rng, n, noise.drift_sd, rho)
+    )
+    if noise.torque_sd:
+        torque += rng.normal(0.0, noise.torque_sd, n)
+    velocity = profile.velocity.copy()
+    if noise.velocity_sd:
+        velocity += rng.normal(0.0, noise.velocity_sd, n)
+    angle = theta
+    if noise.angle_step:
+        angle = np.round(theta / noise.angle_step) * noise.angle_step
+
+    attrs = {
+        "kind": kind,
+        "speed": float(speed_deg_s),
+        "true_inertia": float(inertia),
+        "true_gravity_moment": float(gravity_moment),
+        "true_phi": float(phi),
+        "true_offset": float(offset + shift),
+        "ramp_start": float(profile.ramp_start),
+        "ramp_end": float(profile.ramp_end),
+    }
+    return _dataset(t, angle, velocity, torque, source=source, rate=rate, attrs=attrs)
