@@ -29,6 +29,7 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests examples benchmarks docs/conf.py docs/_ext
 	$(VENV)/bin/ruff format --check src tests examples benchmarks docs/conf.py docs/_ext
 	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports
 
 bench: $(STAMP)
 	$(PY) benchmarks/run.py --json bench-results.json
