@@ -5,8 +5,10 @@ PY       := $(VENV)/bin/python
 STAMP    := $(VENV)/.installed
 DEMO_OUT ?= demo-output
 PYTEST_ARGS ?=
+# `make fuzz FUZZ_ARGS=--hypothesis-seed=N` repeats one fuzz run exactly (CI does).
+FUZZ_ARGS ?=
 
-.PHONY: demo test test-fast lint bench bench-quick docs clean
+.PHONY: demo test test-fast lint fuzz bench bench-quick docs clean
 
 $(PY):
 	@PYTHON=$$(tools/find-python) && echo "creating $(VENV) with $$PYTHON" && "$$PYTHON" -m venv $(VENV)
@@ -24,6 +26,11 @@ test: $(STAMP)
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -n 2 -m "not slow" $(PYTEST_ARGS)
+
+# The readers and the manifest parser under many random inputs (hypothesis, ~1 min): every
+# input gives a valid trial or one InputError line, never another exception.
+fuzz: $(STAMP)
+	$(PY) -m pytest -q -p no:cacheprovider tests/test_io_properties.py --hypothesis-profile=fuzz $(FUZZ_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests examples benchmarks docs/conf.py docs/_ext

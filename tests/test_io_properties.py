@@ -1,0 +1,328 @@
+"""Property-based tests of every trial reader and of the manifest parser (hypothesis).
+
+Two promises, for random input:
+
+- a valid file round-trips: what a reader returns, in SI units, is what was written in the
+  file's units;
+- anything else — random bytes, a valid file cut short, the wrong delimiter, huge or NaN
+  values, random TOML — gives an :class:`~inertiafit.errors.InputError` (or, for a file cut
+  short at a row boundary, a valid trial), never another exception.
+
+The suite runs these with the ``ci`` profile (few examples, derandomised: same examples every
+run). The fuzz command runs the same tests with many random examples::
+
+    make fuzz            # = pytest tests/test_io_properties.py --hypothesis-profile=fuzz
+
+(see ``docs/devices/index.md``).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from inertiafit.errors import InputError
+from inertiafit.io import available_formats, load_study, read_trial
+from inertiafit.io.units import from_si
+
+ANGLE_UNITS = ("deg", "rad")
+TORQUE_UNITS = ("N*m", "ft*lbf", "in*lbf")
+TIME_UNITS = ("s", "ms")
+
+
+def _scratch(name: str, data: bytes | str) -> Path:
+    folder = Path(tempfile.mkdtemp(prefix="inertiafit-prop-"))
+    path = folder / name
+    if isinstance(data, bytes):
+        path.write_bytes(data)
+    else:
+        path.write_text(data, encoding="utf-8")
+    return path
+
+
+def _read_only_input_errors(path: Path, **kwargs) -> xr.Dataset | None:
+    """Read; an InputError is an answer, any other exception fails the test."""
+    return _input_error_or(lambda: read_trial(path, **kwargs))
+
+
+def _input_error_or(call):
+    """``call()``, or None when it raised an InputError of one non-empty line."""
+    try:
+        return call()
+    except InputError as exc:
+        message = str(exc)
+    assert message
+    assert "\n" not in message
+    return None
+
+
+@st.composite
+def trials(draw):
+    """A physically consistent trial in SI units: the velocity is the angle's derivative."""
+    rate = draw(st.sampled_from([100.0, 200.0, 1000.0]))
+    n = draw(st.integers(min_value=30, max_value=400))
+    t = draw(st.floats(min_value=0.0, max_value=100.0)) + np.arange(n) / rate
+    speed = math.radians(draw(st.floats(min_value=5.0, max_value=400.0)))
+    speed *= draw(st.sampled_from([1.0, -1.0]))
+    freq = draw(st.floats(min_value=0.1, max_value=2.0))
+    start = math.radians(draw(st.floats(min_value=-90.0, max_value=90.0)))
+    # a smooth move: angle = start + (speed / w) sin(w (t - t0)), velocity its derivative
+    w = 2 * math.pi * freq
+    tau = t - t[0]
+    angle = start + speed / w * np.sin(w * tau)
+    velocity = speed * np.cos(w * tau)
+    scale = draw(st.floats(min_value=0.1, max_value=300.0))
+    torque = scale * np.sin(angle + draw(st.floats(min_value=-math.pi, max_value=math.pi)))
+    return {"time": t, "angle": angle, "velocity": velocity, "torque": torque, "rate": rate}
+
+
+def _units(draw_angle: str, draw_torque: str, draw_time: str) -> dict[str, str]:
+    return {
+        "time": draw_time,
+        "angle": draw_angle,
+        "velocity": f"{draw_angle}/s",
+        "torque": draw_torque,
+    }
+
+
+def _columns_in_units(trial: dict, units: dict[str, str]) -> dict[str, np.ndarray]:
+    return {
+        q: from_si(trial[q], q, units[q], where="test")
+        for q in ("time", "angle", "velocity", "torque")
+    }
+
+
+def _assert_round_trip(ds: xr.Dataset, trial: dict) -> None:
+    np.testing.assert_allclose(ds["time"].values, trial["time"], rtol=1e-12, atol=1e-12)
+    for q in ("angle", "velocity", "torque"):
+        np.testing.assert_allclose(ds[q].values, trial[q], rtol=1e-9, atol=1e-9)
+    assert ds.attrs["sampling_rate"] == pytest.approx(trial["rate"], rel=1e-6)
+
+
+# --- valid files round-trip ---------------------------------------------------------------
+
+
+@given(
+    trial=trials(),
+    angle=st.sampled_from(ANGLE_UNITS),
+    torque=st.sampled_from(TORQUE_UNITS),
+    time=st.sampled_from(TIME_UNITS),
+    delimiter=st.sampled_from([",", ";", "\t"]),
+)
+def test_csv_round_trips_through_the_units(trial, angle, torque, time, delimiter):
+    units = _units(angle, torque, time)
+    cols = _columns_in_units(trial, units)
+    lines = [delimiter.join(cols)]
+    lines += [
+        delimiter.join(repr(float(cols[q][i])) for q in cols) for i in range(len(trial["time"]))
+    ]
+    path = _scratch("trial.csv", "\n".join(lines) + "\n")
+    ds = read_trial(path, format="csv", units=units, delimiter=delimiter)
+    _assert_round_trip(ds, trial)
+
+
+@given(
+    trial=trials(),
+    gains=st.tuples(
+        st.floats(min_value=1e-3, max_value=1e3),
+        st.floats(min_value=1e-3, max_value=1e3),
+        st.floats(min_value=-2e5, max_value=-1.0) | st.floats(min_value=1.0, max_value=2e5),
+    ),
+    offsets=st.tuples(*(st.floats(min_value=-10, max_value=10) for _ in range(3))),
+)
+def test_analog_channels_round_trip_through_their_calibration(trial, gains, offsets):
+    # volts = (value - offset) / scale in the calibration's unit; read back: scale * volts + offset
+    cal = {}
+    volts = {}
+    for q, g, o in zip(("angle", "velocity", "torque"), gains, offsets, strict=True):
+        unit = {"angle": "deg", "velocity": "deg/s", "torque": "N*m"}[q]
+        cal[q] = {"scale": g, "offset": o, "unit": unit}
+        volts[q] = (from_si(trial[q], q, unit, where="test") - o) / g
+    lines = ["time,angle,velocity,torque"]
+    lines += [
+        ",".join(repr(float(v)) for v in (trial["time"][i], *(volts[q][i] for q in volts)))
+        for i in range(len(trial["time"]))
+    ]
+    path = _scratch("analog.csv", "\n".join(lines) + "\n")
+    ds = read_trial(path, format="analog", calibration=cal)
+    np.testing.assert_allclose(ds["time"].values, trial["time"], rtol=1e-12)
+    for q in ("angle", "velocity", "torque"):
+        span = float(np.ptp(trial[q])) or 1.0
+        np.testing.assert_allclose(ds[q].values, trial[q], rtol=1e-8, atol=1e-9 * span)
+
+
+# --- anything else is an InputError --------------------------------------------------------
+
+
+@given(data=st.binary(min_size=0, max_size=2000), format=st.sampled_from(available_formats()))
+def test_random_bytes_give_input_error(data, format):
+    _read_only_input_errors(_scratch("random.dat", data), format=format)
+
+
+@given(
+    text=st.text(alphabet=st.characters(codec="utf-8", exclude_categories=["Cs"]), max_size=1500),
+    format=st.sampled_from(available_formats()),
+)
+def test_random_text_gives_input_error(text, format):
+    _read_only_input_errors(_scratch("random.txt", text), format=format)
+
+
+def _valid_csv(trial: dict) -> str:
+    units = _units("deg", "N*m", "s")
+    cols = _columns_in_units(trial, units)
+    rows = [",".join(repr(float(cols[q][i])) for q in cols) for i in range(len(trial["time"]))]
+    return "time,angle,velocity,torque\n" + "\n".join(rows) + "\n"
+
+
+@given(trial=trials(), cut=st.floats(min_value=0.0, max_value=1.0))
+def test_a_truncated_file_is_an_input_error_or_a_shorter_valid_trial(trial, cut):
+    text = _valid_csv(trial)
+    path = _scratch("cut.csv", text[: int(cut * len(text))])
+    ds = _read_only_input_errors(path, format="csv")
+    if ds is not None:  # cut at a row boundary: the rows before the cut, unchanged
+        n = ds.sizes["time"]
+        np.testing.assert_allclose(ds["time"].values, trial["time"][:n], rtol=1e-12)
+
+
+@given(trial=trials(), delimiter=st.sampled_from([";", "\t", " ", "|"]))
+def test_the_wrong_delimiter_is_an_input_error(trial, delimiter):
+    path = _scratch("wrong.csv", _valid_csv(trial).replace(",", delimiter))
+    with pytest.raises(InputError):
+        read_trial(path, format="csv")
+
+
+@given(
+    trial=trials(),
+    value=st.sampled_from(["nan", "NaN", "inf", "-inf", "1e308", "-1e308", "1e400", "", "x"]),
+    where=st.tuples(st.integers(min_value=0, max_value=10_000), st.integers(0, 3)),
+)
+def test_a_bad_cell_is_an_input_error(trial, value, where):
+    lines = _valid_csv(trial).splitlines()
+    row = 1 + where[0] % (len(lines) - 1)
+    cells = lines[row].split(",")
+    cells[where[1]] = value
+    lines[row] = ",".join(cells)
+    path = _scratch("bad.csv", "\n".join(lines) + "\n")
+    ds = _read_only_input_errors(path, format="csv")
+    if ds is not None:  # only a huge but finite torque can be a valid value
+        assert value in ("1e308", "-1e308")
+        for q in ("time", "angle", "velocity", "torque"):
+            assert np.isfinite(ds[q].values).all()
+
+
+#: Valid files of every text format (the readers' own fixtures) and how to read them: the seeds
+#: the mutation test below edits byte by byte.
+DATA = Path(__file__).parent / "data"
+SEEDS = [
+    ("generic_ms_ftlb.csv", {
+        "format": "csv",
+        "columns": {"time": "t_ms", "angle": "theta_deg", "velocity": "omega_dps",
+                    "torque": "tau_ftlb"},
+        "units": {"time": "ms", "angle": "deg", "velocity": "deg/s", "torque": "ft*lbf"},
+    }),
+    ("analog_volts.csv", {
+        "format": "analog",
+        "columns": {"torque": "trq_V", "angle": "pos_V", "velocity": "vel_V"},
+        "calibration": {
+            "torque": {"scale": 100.0, "offset": 0.0, "unit": "N*m"},
+            "angle": {"scale": 90.0, "offset": 0.0, "unit": "deg"},
+            "velocity": {"scale": 120.0, "offset": 0.0, "unit": "deg/s"},
+        },
+    }),
+    ("humac_ftlb.csv", {"format": "humac"}),
+    ("humac_nm_quoted.csv", {"format": "humac"}),
+    ("biodex_ftlb.txt", {"format": "biodex"}),
+    ("biodex_6line.txt", {"format": "biodex"}),
+]  # fmt: skip
+
+
+def test_every_seed_file_is_valid_as_given():  # else the mutation test fuzzes only errors
+    for name, kwargs in SEEDS:
+        assert read_trial(DATA / name, **kwargs).sizes["time"] > 0, name
+
+
+@given(
+    seed=st.sampled_from(SEEDS),
+    edits=st.lists(
+        st.tuples(st.floats(0, 1), st.integers(0, 8), st.binary(max_size=8)),
+        min_size=1,
+        max_size=6,
+    ),
+)
+def test_a_mutated_file_of_every_format_gives_input_error_or_a_trial(seed, edits):
+    name, kwargs = seed
+    data = (DATA / name).read_bytes()
+    for at, length, insert in edits:
+        i = int(at * len(data))
+        data = data[:i] + insert + data[i + length :]
+    ds = _read_only_input_errors(_scratch(name, data), **kwargs)
+    if ds is not None:  # whatever is read is a valid trial: finite SI values, time increasing
+        assert np.isfinite(ds["time"].values).all()
+        assert (np.diff(ds["time"].values) > 0).all()
+        for q in ("angle", "velocity", "torque"):
+            assert np.isfinite(ds[q].values).all()
+
+
+def test_the_harness_fails_on_any_other_exception(monkeypatch):  # negative control
+    from inertiafit.io.readers import registry
+
+    def broken(path, *, columns=None, units=None, calibration=None):
+        raise ValueError("not an InputError")
+
+    monkeypatch.setitem(registry.READERS, "csv", broken)
+    with pytest.raises(ValueError, match="not an InputError"):
+        _read_only_input_errors(_scratch("x.csv", "a"), format="csv")
+
+
+# --- the manifest parser -------------------------------------------------------------------
+
+MANIFEST = """name = "fuzzed"
+[bodies.attachment]
+prior = "biodex-elbow-attachment"
+[[trials]]
+file = "qs.csv"
+bodies = ["attachment"]
+kind = "quasi-static"
+[[trials]]
+file = "fast.csv"
+bodies = ["attachment"]
+kind = "fast"
+speed = 240
+"""
+
+
+@given(
+    edits=st.lists(
+        st.tuples(
+            st.integers(min_value=0, max_value=len(MANIFEST)),
+            st.integers(min_value=0, max_value=20),
+            st.text(max_size=12),
+        ),
+        min_size=1,
+        max_size=4,
+    )
+)
+@settings(suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+def test_a_mangled_manifest_is_an_input_error(edits):
+    text = MANIFEST
+    for at, length, insert in edits:
+        text = text[:at] + insert + text[at + length :]
+    assume(text != MANIFEST)
+    folder = _scratch("qs.csv", "time,angle,velocity,torque\n").parent
+    (folder / "fast.csv").write_text("time,angle,velocity,torque\n")
+    manifest = folder / "study.toml"
+    manifest.write_text(text, encoding="utf-8")
+    _input_error_or(lambda: load_study(manifest))
+
+
+@given(data=st.binary(max_size=600))
+def test_manifest_of_random_bytes_is_an_input_error(data):
+    path = _scratch("study.toml", data)
+    _input_error_or(lambda: load_study(path))
