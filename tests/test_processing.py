@@ -364,7 +364,10 @@ def test_inertia_over_ten_trials_is_within_two_percent(condition):
             assert e.flags == ()
             assert e.inertia_se > 0
             assert e.n_window > 80
-            assert e.residual_rms < 0.3
+            # The window reaches the ramp's corners (half the plateau, not three quarters as
+            # before): there the simulator's instant sampling of a jumping acceleration leaves
+            # up to 0.25 N m of residual without any noise (0.002 with sampling="average").
+            assert e.residual_rms < 0.35
             assert e.source == f"{speed}.csv"
 
 

@@ -1,22 +1,45 @@
 """The uniform-acceleration window of a fast trial (the grey box of the paper's Fig. 4).
 
-Rule, on the filtered velocity ``v`` and acceleration ``alpha`` (:func:`lowpass`):
+A person finds the window by eye on the velocity trace: the stretch where the velocity climbs
+along a straight line, from where it leaves rest to where it bends over towards (or past) the
+preset speed. The rule does the same on the filtered velocity ``v`` (:func:`lowpass`) rather
+than on the acceleration ``alpha``: ``alpha`` is the derivative of ``v`` and shows a servo
+ripple near the filter's cut-off at full strength (+-25 % around its plateau is common), while
+``v`` integrates it (a ripple of +-30 % of the acceleration at 10 Hz moves a 240 deg/s ramp
+off its straight line by about 3 % of its rise).
 
-1. The direction of the move ``s`` is the sign of the velocity at its largest magnitude; the
-   search runs from the start of the trial to the first sample where ``s v`` reaches the preset
-   speed (the trial's ``speed`` attribute or argument, deg/s; without one, the top speed of the
-   trial). Everything after it (isokinetic overshoot, ripple at speed, braking) is ignored.
-2. The plateau level ``P``: the median of ``s alpha`` over the longest run where it exceeds
-   ``level`` (default one half) of its maximum in the search region.
-3. The window is the longest contiguous run where ``s alpha`` stays within ``tolerance``
-   (default +-25 %) of ``P``.
-4. It must carry the velocity through at least ``min_speed_change`` (default one half) of the
-   preset speed (and the trial must reach at least ``MIN_SPEED`` = 10 deg/s); otherwise the trial has no usable window (a quasi-static trial, a trial that
-   starts at speed, a profile without a uniform ramp).
+1. **Direction and speed.** ``s`` is the sign of the velocity at its largest magnitude and
+   ``u = s v``. The reference speed ``V`` is the preset speed (the trial's ``speed``
+   attribute or argument, deg/s) or, without one, the median of ``u`` where it exceeds half
+   its maximum (the speed the trial settles at: with a start overshoot the top speed can be
+   twice it). A trial slower than ``MIN_SPEED`` = 10 deg/s has no window.
+2. **The rise.** The search ends at the first peak of ``u``: its largest value before it
+   first falls more than ``DROP`` (10 %) of ``V`` below its running maximum, or the trial's
+   top speed if it never does. A start overshoot (up to twice the preset speed) settles back
+   after that peak; braking ends a trial without one. The rise may pass the preset speed:
+   a uniform acceleration that carries the speed past it is still one. Only the rise itself
+   is searched: from the last sample within 2 % (of the rise) of its bottom to the first
+   within 5 % of its top, widened by a quarter of that on each side.
+3. **The straight stretch.** Among the stretches of the rise, the longest (in time) whose
+   least-squares line ``u = u0 + b t`` has a positive slope ``b``, an rms deviation of ``u``
+   from the line of at most ``tolerance`` (default 3 %) of the line's rise ``b T`` over the
+   stretch, and a rise ``b T`` of at least ``min_speed_change`` (default one half) of ``V``.
+   At most ``CANDIDATES`` start and end points are tried (every k-th sample on long rises);
+   the next step places the ends to the sample.
+4. **The ends.** The window runs from the first to the last sample of that stretch where
+   ``s alpha`` reaches ``level`` (default one half) of ``b``. A loose line reaches a little
+   into the rounded corners of the filtered ramp; a zero-lag filter rounds a corner of the
+   true ramp symmetrically, so the filtered acceleration passes half its plateau at the true
+   corner and the window ends there. A ripple of +-30 % never takes it that low inside the
+   ramp.
+5. **Checks.** The window must hold ``MIN_WINDOW`` samples and carry ``u`` through
+   ``min_speed_change`` of ``V``; otherwise the trial has no usable window (a quasi-static
+   trial, a trial that starts at speed, a profile without a ramp), an ``InputError`` naming
+   the file, what was looked for and the manifest's ``window = [t0, t1]``.
 
-A symmetric (zero-lag) filter turns the corners of the velocity ramp into transitions centred
-on the true corners; the +-25 % band trims a few milliseconds at each end where the filtered
-acceleration is still rising or falling.
+A manual window (argument, or ``trial.attrs["window"]`` from the manifest) overrides all of
+this. Windows under ``MIN_SAMPLES`` samples or ``MIN_DURATION`` seconds are flagged: at
+100 Hz a 180 deg/s ramp holds about 10 samples.
 """
 
 from __future__ import annotations
@@ -33,6 +56,8 @@ from inertiafit.errors import InputError
 from inertiafit.processing.filtering import CUTOFF, ORDER, lowpass, source_of
 
 __all__ = [
+    "CANDIDATES",
+    "DROP",
     "LEVEL",
     "MIN_DURATION",
     "MIN_SAMPLES",
@@ -45,11 +70,16 @@ __all__ = [
     "find_window_arrays",
 ]
 
-#: Fraction of the peak acceleration that defines the candidate plateau.
+#: The window's ends: where the acceleration reaches this fraction of the fitted slope.
 LEVEL = 0.5
-#: Relative band around the plateau level that counts as uniform acceleration.
-TOLERANCE = 0.25
-#: The window must change the velocity by at least this fraction of the preset speed.
+#: Largest rms deviation from the straight line, as a fraction of the line's rise.
+TOLERANCE = 0.03
+#: The rise ends where the speed first falls this fraction of the reference speed below its
+#: running maximum (the first peak).
+DROP = 0.1
+#: Most start (and end) points of the straight stretch tried; longer rises are subsampled.
+CANDIDATES = 120
+#: The window must change the speed by at least this fraction of the reference speed.
 MIN_SPEED_CHANGE = 0.5
 #: A window with fewer samples, or shorter than ``MIN_DURATION`` seconds, is flagged short.
 MIN_SAMPLES = 20
@@ -91,20 +121,6 @@ class AccelerationWindow:
     flags: tuple[str, ...] = ()
 
 
-def _runs(mask: NDArray) -> list[tuple[int, int]]:
-    """``(start, stop)`` of each run of True in a boolean array."""
-    padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    edges = np.flatnonzero(np.diff(padded))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
-
-
-def _longest(mask: NDArray) -> tuple[int, int] | None:
-    runs = _runs(mask)
-    if not runs:
-        return None
-    return max(runs, key=lambda r: r[1] - r[0])
-
-
 def _hint(source: str) -> str:
     return (
         f"set window = [t0, t1] (s) for {source} in the manifest's [[trials]] entry, "
@@ -135,8 +151,13 @@ def find_window(
         given, ``trial.attrs["window"]`` (set from the manifest) is used when present.
     speed_deg_s : float, optional
         Preset speed (deg/s); default ``trial.attrs["speed"]``, else the trial's top speed.
-    level, tolerance, min_speed_change : float
-        Parameters of the rule.
+    level : float
+        The window's ends: where the acceleration reaches this fraction of the fitted slope.
+    tolerance : float
+        Largest rms deviation of the velocity from its straight line, as a fraction of the
+        line's rise over the stretch.
+    min_speed_change : float
+        Least change of speed in the window, as a fraction of the reference speed.
     cutoff, order
         Low-pass filter, when the trial is raw.
 
@@ -246,6 +267,61 @@ def _manual(t: NDArray, window: Sequence[float], source: str) -> tuple[int, int]
     return start, stop
 
 
+def _reference_speed(u: NDArray, speed_deg_s: float | None) -> float:
+    """The preset speed (rad/s), else the median speed where ``u`` exceeds half its top."""
+    if speed_deg_s:
+        return math.radians(float(speed_deg_s))
+    top = float(np.max(u))
+    return float(np.median(u[u >= 0.5 * top]))
+
+
+def _rise(u: NDArray, reference: float) -> tuple[int, int, int]:
+    """``(first, stop, peak)``: the part of the trial searched, and its first peak."""
+    running = np.maximum.accumulate(u)
+    fell = np.flatnonzero((u < running - DROP * reference) & (running >= 0.5 * reference))
+    end = int(fell[0]) if fell.size else u.size
+    peak = int(np.argmax(u[:end]))
+    floor = float(np.min(u[: peak + 1]))
+    span = float(u[peak]) - floor
+    # From the last sample near the bottom of the rise to the first near its top, with a
+    # margin of a quarter of that on each side: a straight stretch reaching further would lie
+    # along the flat before the ramp or the speed after it.
+    low = int(np.flatnonzero(u[: peak + 1] <= floor + 0.02 * span)[-1])
+    high = low + int(np.argmax(u[low : peak + 1] >= u[peak] - 0.05 * span))
+    margin = (high - low) // 4
+    return max(0, low - margin), min(peak, high + margin) + 1, peak
+
+
+def _straight_stretches(
+    t: NDArray, u: NDArray, bounds: NDArray
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Least-squares lines of ``u`` on ``t`` over every stretch ``[bounds[i], bounds[j])``.
+
+    Returns the matrices (rows: start, columns: end) of sample counts, slopes, rms deviations
+    from the line and durations; entries with ``j <= i`` are meaningless (NaN or negative).
+    """
+    lo = int(bounds[0])
+    tt = t[lo : bounds[-1]] - t[lo]
+    uu = u[lo : bounds[-1]] - u[lo]
+    k = bounds - lo
+
+    def between(x: NDArray) -> NDArray:
+        sums = np.concatenate(([0.0], np.cumsum(x)))[k]
+        return sums[None, :] - sums[:, None]
+
+    n = between(np.ones_like(tt))
+    st, su = between(tt), between(uu)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sxx = between(tt * tt) - st * st / n
+        sxy = between(tt * uu) - st * su / n
+        syy = between(uu * uu) - su * su / n
+        slope = sxy / sxx
+        rms = np.sqrt(np.maximum(syy - slope * sxy, 0.0) / n)
+    starts = t[np.minimum(bounds, t.size - 1)]
+    ends = t[np.maximum(bounds - 1, 0)]
+    return n, slope, rms, ends[None, :] - starts[:, None]
+
+
 def _detect(
     t: NDArray,
     velocity: NDArray,
@@ -260,37 +336,55 @@ def _detect(
     """Indices ``(start, stop)`` of the detected window; see the module docstring."""
     top = int(np.argmax(np.abs(velocity)))
     direction = 1.0 if velocity[top] >= 0 else -1.0
-    v = direction * velocity
-    a = direction * alpha
-    target = math.radians(float(speed_deg_s)) if speed_deg_s else float(v[top])
-    reached = np.flatnonzero(v >= target)
-    limit = int(reached[0]) + 1 if reached.size else top + 1
-    looked_for = (
-        f"no uniform-acceleration window: looked for the longest run where the filtered "
-        f"acceleration stays within +-{tolerance:.0%} of its plateau before the velocity "
-        f"reaches {math.degrees(target):.4g} deg/s"
-    )
-    if math.degrees(target) < MIN_SPEED:
+    u = direction * np.asarray(velocity, dtype=np.float64)
+    reference = _reference_speed(u, speed_deg_s)
+    slowest = math.degrees(min(reference, float(u[top])))
+    if not slowest >= MIN_SPEED:
         raise InputError(
             f"{source}: no uniform-acceleration window: the trial never moves faster than "
-            f"{math.degrees(target):.3g} deg/s (a fast trial reaches its preset speed, "
-            f">= {MIN_SPEED:g} deg/s; is it quasi-static?); {_hint(source)}"
+            f"{slowest:.3g} deg/s (a fast trial reaches its preset speed, >= {MIN_SPEED:g} "
+            f"deg/s; is it quasi-static?); {_hint(source)}"
         )
-    a = a[:limit]
-    peak = float(a.max()) if a.size else 0.0
-    if not peak > 0:
-        raise InputError(f"{source}: {looked_for}, but it never accelerates; {_hint(source)}")
-    run = _longest(a >= level * peak)
-    plateau = float(np.median(a[run[0] : run[1]])) if run else peak
-    run = _longest(np.abs(a - plateau) <= tolerance * plateau)
-    if run is None or run[1] - run[0] < MIN_WINDOW:
-        raise InputError(f"{source}: {looked_for}; {_hint(source)}")
-    start, stop = run
-    change = v[stop - 1] - v[start]
-    if change < min_speed_change * target:
+    first, stop, peak = _rise(u, reference)
+    need = min_speed_change * reference
+    looked_for = (
+        f"no uniform-acceleration window: looked for the longest stretch before the first "
+        f"peak of the speed ({math.degrees(u[peak]):.4g} deg/s at {t[peak]:.4g} s) "
+        f"where the filtered velocity rises along a straight line (rms deviation <= "
+        f"{tolerance:.0%} of the rise) by at least {min_speed_change:.0%} of "
+        f"{math.degrees(reference):.4g} deg/s"
+    )
+    step = max(1, math.ceil((stop - first) / CANDIDATES))
+    bounds = np.arange(first, stop + 1, step)
+    if bounds[-1] != stop:
+        bounds = np.append(bounds, stop)
+    n, slope, rms, duration = _straight_stretches(t, u, bounds)
+    with np.errstate(invalid="ignore"):
+        rise = slope * duration
+        straight = (n >= MIN_WINDOW) & (slope > 0) & (rms <= tolerance * rise)
+        ok = straight & (rise >= need)
+    if not ok.any():
+        if straight.any():
+            i, j = np.unravel_index(np.argmax(np.where(straight, rise, -np.inf)), rise.shape)
+            lo, hi = int(bounds[i]), int(bounds[j])
+            found = (
+                f"the straight stretch that rises most ({t[lo]:.4g} to {t[hi - 1]:.4g} s) "
+                f"rises by {math.degrees(u[hi - 1] - u[lo]):.3g} deg/s"
+            )
+        else:
+            found = "no stretch of it is straight and rising"
+        raise InputError(f"{source}: {looked_for}; {found}; {_hint(source)}")
+    i, j = np.unravel_index(np.argmax(np.where(ok, duration, -np.inf)), duration.shape)
+    lo, hi = int(bounds[i]), int(bounds[j])
+    accelerating = np.flatnonzero(direction * alpha[lo:hi] >= level * slope[i, j])
+    if accelerating.size:
+        lo, hi = lo + int(accelerating[0]), lo + int(accelerating[-1]) + 1
+    change = u[hi - 1] - u[lo] if hi > lo else 0.0
+    if not accelerating.size or hi - lo < MIN_WINDOW or change < need:
         raise InputError(
-            f"{source}: {looked_for}; the best run ({t[start]:.4g} to {t[stop - 1]:.4g} s) "
-            f"changes the speed by {math.degrees(change):.3g} deg/s, less than "
-            f"{min_speed_change:.0%} of it; {_hint(source)}"
+            f"{source}: {looked_for}; inside the straight stretch ({t[bounds[i]]:.4g} to "
+            f"{t[bounds[j] - 1]:.4g} s) the acceleration reaches {level:.0%} of the line's "
+            f"slope on {hi - lo if accelerating.size else 0} samples, which change the speed "
+            f"by {math.degrees(change):.3g} deg/s; {_hint(source)}"
         )
-    return start, stop
+    return lo, hi

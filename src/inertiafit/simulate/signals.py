@@ -5,13 +5,17 @@ Every trial follows the rigid-body model of ``docs/method.md``::
     tau(t) = I alpha(t) + M_g sin(theta(t) + phi) + c
 
 sampled at 1 kHz by default, with a trapezoidal velocity profile, servo ripple, channel noise,
-a drifting torque disturbance and a quantised angle (:class:`Noise`, :class:`Motion`); see
+a drifting torque disturbance and a quantised angle (:class:`Noise`, :class:`Motion`). Two harder
+imperfections are off by default: a servo ripple sized against the ramp's acceleration
+(``Noise.servo_ripple``) and a start overshoot that carries the speed past the preset, up to
+twice it, before the servo brakes it back (``Motion.start_overshoot``); see
 ``docs/processing.md``, "Simulated trials". :func:`simulate_trial` returns the Trial in SI
 units.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -26,10 +30,12 @@ from inertiafit.physics import GRAVITY
 from inertiafit.physics import gravity_moment as _gravity_moment
 from inertiafit.physics import inertia as _inertia
 
-__all__ = ["KINDS", "Body", "Motion", "Noise", "simulate_trial"]
+__all__ = ["KINDS", "SAMPLINGS", "Body", "Motion", "Noise", "simulate_trial", "with_servo_ripple"]
 
 #: The kinds of trial: a slow move for the gravity model, a fast one for the inertia.
 KINDS = ("quasi-static", "fast")
+#: How a channel is sampled: its value at the sample's time, or its mean over the period.
+SAMPLINGS = ("instant", "average")
 
 
 @dataclass(frozen=True)
@@ -61,6 +67,17 @@ class Noise:
         fast trial (the quasi-static trial is the reference): the sensor zero and the friction
         are not the same in every trial. When set, it is the largest source of trial-to-trial
         scatter of the inertia (``shift / alpha``).
+    servo_ripple : float
+        Amplitude of a sinusoidal servo ripple of the velocity, given as the amplitude of its
+        *acceleration* relative to the ramp's (``Motion.acceleration``): 0.3 puts the true
+        acceleration +-30 % around its plateau during the ramp. The velocity amplitude is
+        ``servo_ripple * acceleration / (2 pi servo_ripple_frequency)``, the same at every
+        speed, during the whole move (faded in over a quarter period at its start and out at
+        its end, so the shaft starts and stops at rest). Real motion, like ``ripple``; its
+        phase is random per trial. Default 0 (none); unlike ``ripple`` it is meant to be
+        large, near the filter's cut-off.
+    servo_ripple_frequency : float
+        Frequency of the servo ripple (Hz); 10-25 Hz straddles the 20 Hz default cut-off.
     """
 
     torque_sd: float = 0.4
@@ -71,6 +88,8 @@ class Noise:
     drift_sd: float = 0.03
     drift_time: float = 0.2
     trial_offset_sd: float = 0.0
+    servo_ripple: float = 0.0
+    servo_ripple_frequency: float = 15.0
 
     @classmethod
     def none(cls) -> Noise:
@@ -107,6 +126,17 @@ class Motion:
         Duration of the overshoot bump (s).
     rest : float
         Time at rest before and after the move (s).
+    start_overshoot : float
+        Relative velocity overshoot at the start of the move (1.0 = twice the preset speed):
+        the uniform acceleration carries the speed past the preset up to ``(1 +
+        start_overshoot)`` times it, then the servo brakes it back to the preset over
+        ``settle_time`` (a half-cosine of the velocity: the braking spike). The
+        uniform-acceleration period is then the whole rise, up to the peak. Isokinetic
+        devices overshoot up to about twice the preset speed during the acceleration
+        (isokinetics.net, "Moment artifacts"; Schwartz et al. 2010, J Sports Sci Med 9:140).
+        0 for none; not combined with ``overshoot``.
+    settle_time : float
+        Time (s) the servo takes to brake the start overshoot back to the preset speed.
     """
 
     start: float = 0.0
@@ -115,6 +145,8 @@ class Motion:
     overshoot: float = 0.0
     overshoot_time: float = 0.04
     rest: float = 0.2
+    start_overshoot: float = 0.0
+    settle_time: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -145,10 +177,33 @@ class _Profile:
     extras: dict[str, float] = field(default_factory=dict)
 
 
+def with_servo_ripple(
+    velocity: np.ndarray,
+    acceleration: np.ndarray,
+    t: np.ndarray,
+    ripple: float,
+    frequency: float,
+    phase: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A speed profile times ``1 + ripple sin(2 pi f t + phase)``, and its derivative.
+
+    The ripple scales the commanded velocity (so it fades in and out with the move); the
+    acceleration is the exact derivative of the product.
+    """
+    w = 2.0 * math.pi * frequency
+    factor = 1.0 + ripple * np.sin(w * t + phase)
+    return (
+        velocity * factor,
+        acceleration * factor + velocity * ripple * w * np.cos(w * t + phase),
+    )
+
+
 def _profile(
     t: np.ndarray, speed: float, motion: Motion, ripple: float, ripple_frequency: float, phase
 ) -> _Profile:
     """Nominal trapezoidal velocity with ripple; speed (rad/s) > 0, direction from the motion."""
+    if motion.start_overshoot:
+        return _start_overshoot_profile(t, speed, motion, ripple, ripple_frequency, phase)
     distance = abs(motion.end - motion.start)
     direction = 1.0 if motion.end >= motion.start else -1.0
     a = motion.acceleration
@@ -183,10 +238,7 @@ def _profile(
         vel[bumping] += overshoot * v * np.sin(w * s[bumping])
         acc[bumping] += overshoot * v * w * np.cos(w * s[bumping])
     if ripple:
-        w = 2.0 * math.pi * ripple_frequency
-        factor = 1.0 + ripple * np.sin(w * t + phase)
-        acc = acc * factor + vel * ripple * w * np.cos(w * t + phase)
-        vel = vel * factor
+        vel, acc = with_servo_ripple(vel, acc, t, ripple, ripple_frequency, phase)
     return _Profile(
         velocity=direction * vel,
         acceleration=direction * acc,
@@ -195,6 +247,93 @@ def _profile(
         peak_speed=v,
         extras={"motion_end": t0 + 2 * t_ramp + t_flat},
     )
+
+
+def _start_overshoot_times(speed: float, motion: Motion) -> tuple[float, float, float]:
+    """Durations (s) of the rise to the peak, of the constant speed and of the braking.
+
+    Raises
+    ------
+    ValueError
+        If the range is too short for the speed with this overshoot.
+    """
+    a, v, over, settle = motion.acceleration, speed, motion.start_overshoot, motion.settle_time
+    peak = (1.0 + over) * v
+    distance = abs(motion.end - motion.start)
+    # rise to the peak, half-cosine settle from the peak to v, braking from v to rest
+    used = peak * peak / (2 * a) + settle * (v + 0.5 * over * v) + v * v / (2 * a)
+    t_flat = (distance - used) / v
+    if t_flat < 0:
+        msg = (
+            f"motion: a range of {math.degrees(distance):.4g} deg is too short for "
+            f"{math.degrees(v):.4g} deg/s with start_overshoot={over:g} at "
+            f"{math.degrees(a):.4g} deg/s^2 (needs {math.degrees(used):.4g} deg)"
+        )
+        raise ValueError(msg)
+    return peak / a, t_flat, v / a
+
+
+def _start_overshoot_profile(
+    t: np.ndarray, speed: float, motion: Motion, ripple: float, ripple_frequency: float, phase
+) -> _Profile:
+    """Uniform rise past the preset to ``(1 + start_overshoot)`` times it, settle, isokinetic."""
+    direction = 1.0 if motion.end >= motion.start else -1.0
+    a, v, over, settle = motion.acceleration, speed, motion.start_overshoot, motion.settle_time
+    t_up, t_flat, t_down = _start_overshoot_times(speed, motion)
+    t0 = motion.rest
+    tau = t - t0
+    t_settle_end = t_up + settle
+    t_brake = t_settle_end + t_flat
+    up = (tau >= 0) & (tau < t_up)
+    settling = (tau >= t_up) & (tau < t_settle_end)
+    flat = (tau >= t_settle_end) & (tau < t_brake)
+    down = (tau >= t_brake) & (tau < t_brake + t_down)
+    vel = np.zeros_like(t)
+    acc = np.zeros_like(t)
+    vel[up] = a * tau[up]
+    acc[up] = a
+    w = math.pi / settle
+    s = tau[settling] - t_up
+    vel[settling] = v + 0.5 * over * v * (1.0 + np.cos(w * s))
+    acc[settling] = -0.5 * over * v * w * np.sin(w * s)
+    vel[flat] = v
+    vel[down] = v - a * (tau[down] - t_brake)
+    acc[down] = -a
+    if ripple:
+        vel, acc = with_servo_ripple(vel, acc, t, ripple, ripple_frequency, phase)
+    return _Profile(
+        velocity=direction * vel,
+        acceleration=direction * acc,
+        ramp_start=t0,
+        ramp_end=t0 + t_up,
+        peak_speed=(1.0 + over) * v,
+        extras={"motion_end": t0 + t_brake + t_down},
+    )
+
+
+def _servo_ripple(
+    t: np.ndarray, start: float, end: float, amplitude: float, frequency: float, phase: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and acceleration of a sinusoidal ripple during ``[start, end]``.
+
+    The ripple fades in over a quarter period after ``start`` and out over a quarter period
+    before ``end`` (half-cosine envelopes), so the velocity is continuous and zero at rest.
+    """
+    w = 2.0 * math.pi * frequency
+    fade = min(0.25 / frequency, 0.5 * (end - start))
+    env = np.zeros_like(t)
+    denv = np.zeros_like(t)
+    inside = (t >= start) & (t <= end)
+    env[inside] = 1.0
+    for edge, sign in ((start, 1.0), (end, -1.0)):
+        s = sign * (t - edge)  # time since the start, or left until the end
+        ramp = inside & (s < fade)
+        env[ramp] = 0.5 * (1.0 - np.cos(math.pi * s[ramp] / fade))
+        denv[ramp] = sign * 0.5 * math.pi / fade * np.sin(math.pi * s[ramp] / fade)
+    sine = np.sin(w * t + phase)
+    velocity = amplitude * env * sine
+    acceleration = amplitude * (denv * sine + env * w * np.cos(w * t + phase))
+    return velocity, acceleration
 
 
 def _ar1(rng: np.random.Generator, n: int, sd: float, rho: float) -> np.ndarray:
@@ -236,6 +375,50 @@ def _dataset(
     )
 
 
+def _check_hard_imperfections(noise: Noise, motion: Motion) -> None:
+    """Reject a negative servo ripple or start overshoot, and the two overshoots together."""
+    if not (noise.servo_ripple >= 0 and noise.servo_ripple_frequency > 0):
+        msg = (
+            "noise: servo_ripple must be >= 0 and servo_ripple_frequency > 0, got "
+            f"{noise.servo_ripple!r}, {noise.servo_ripple_frequency!r}"
+        )
+        raise ValueError(msg)
+    if not (motion.start_overshoot >= 0 and motion.settle_time > 0):
+        msg = (
+            "motion: start_overshoot must be >= 0 and settle_time > 0, got "
+            f"{motion.start_overshoot!r}, {motion.settle_time!r}"
+        )
+        raise ValueError(msg)
+    if motion.start_overshoot and motion.overshoot:
+        msg = "motion: set overshoot or start_overshoot, not both"
+        raise ValueError(msg)
+
+
+def _motion(
+    t: np.ndarray, speed: float, motion: Motion, noise: Noise, phase: float, servo_phase: float
+) -> _Profile:
+    """Velocity and acceleration at times ``t``: the profile, its ripple, the servo ripple."""
+    profile = _profile(t, speed, motion, noise.ripple, noise.ripple_frequency, phase)
+    if not noise.servo_ripple:
+        return profile
+    w = 2 * math.pi * noise.servo_ripple_frequency
+    amplitude = noise.servo_ripple * motion.acceleration / w
+    direction = 1.0 if motion.end >= motion.start else -1.0
+    vel, acc = _servo_ripple(
+        t,
+        profile.ramp_start,
+        profile.extras["motion_end"],
+        amplitude,
+        noise.servo_ripple_frequency,
+        servo_phase,
+    )
+    return dataclasses.replace(
+        profile,
+        velocity=profile.velocity + direction * vel,
+        acceleration=profile.acceleration + direction * acc,
+    )
+
+
 def simulate_trial(
     *,
     inertia: float,
@@ -249,6 +432,7 @@ def simulate_trial(
     noise: Noise | None = None,
     motion: Motion | None = None,
     source: str = "simulated",
+    sampling: str = "instant",
 ) -> xr.Dataset:
     """Simulate one passive dynamometer trial of a rigid body.
 
@@ -276,6 +460,14 @@ def simulate_trial(
         Range, acceleration, overshoot and rest; default :class:`Motion` () (0 to 90 deg).
     source : str
         Recorded in ``attrs["source"]``.
+    sampling : {"instant", "average"}
+        ``"instant"`` (the default): each sample is the value at its time. The acceleration
+        jumps at the corners of the profile, so a corner between two samples puts up to half a
+        sample of ``I alpha`` in the torque that the velocity does not show: negligible at
+        1 kHz, a bias of several per cent on a 100 ms ramp at 100 Hz. ``"average"``: the
+        torque and the velocity are their means over the sample period centred on each
+        sample (an integrating front end), so the torque's ``I alpha`` always adds up to the
+        velocity's change; use it below 1 kHz.
 
     Returns
     -------
@@ -288,10 +480,15 @@ def simulate_trial(
     Raises
     ------
     ValueError
-        If ``kind`` is unknown or ``speed_deg_s``, ``rate`` is not positive.
+        If ``kind`` or ``sampling`` is unknown, ``speed_deg_s`` or ``rate`` is not positive,
+        the servo ripple or start overshoot is negative, or the range is too short for the
+        speed with the start overshoot.
     """
     if kind not in KINDS:
         msg = f"kind must be one of {KINDS}, got {kind!r}"
+        raise ValueError(msg)
+    if sampling not in SAMPLINGS:
+        msg = f"sampling must be one of {SAMPLINGS}, got {sampling!r}"
         raise ValueError(msg)
     if speed_deg_s is None:
         speed_deg_s = 1.0 if kind == "quasi-static" else 240.0
@@ -302,22 +499,38 @@ def simulate_trial(
     noise = Noise() if noise is None else noise
     motion = Motion() if motion is None else motion
     speed = speed_deg_s * DEG
+    _check_hard_imperfections(noise, motion)
 
     distance = abs(motion.end - motion.start)
-    duration = 2 * motion.rest + distance / speed + speed / motion.acceleration
-    duration += motion.overshoot_time if motion.overshoot else 0.0
+    if motion.start_overshoot:
+        t_up, t_flat, t_down = _start_overshoot_times(speed, motion)
+        duration = 2 * motion.rest + t_up + motion.settle_time + t_flat + t_down
+    else:
+        duration = 2 * motion.rest + distance / speed + speed / motion.acceleration
+        duration += motion.overshoot_time if motion.overshoot else 0.0
     n = math.ceil(duration * rate) + 1
     t = np.arange(n) / rate
 
-    profile = _profile(
-        t, speed, motion, noise.ripple, noise.ripple_frequency, rng.uniform(0, 2 * math.pi)
-    )
+    phase = rng.uniform(0, 2 * math.pi)
+    # The servo ripple's phase comes from a child generator, which draws nothing from ``rng``:
+    # the channel noise of a trial is the same with and without the servo ripple.
+    servo_phase = rng.spawn(1)[0].uniform(0, 2 * math.pi) if noise.servo_ripple else 0.0
+    profile = _motion(t, speed, motion, noise, phase, servo_phase)
     # Angle: the integral of the true velocity (trapezoid rule, exact for the linear ramps).
     dt = 1.0 / rate
     theta = np.empty(n)
     theta[0] = motion.start
     np.cumsum(0.5 * dt * (profile.velocity[1:] + profile.velocity[:-1]), out=theta[1:])
     theta[1:] += motion.start
+    if sampling == "average":
+        # Means over [t - dt/2, t + dt/2]: the acceleration's is exact (the change of the
+        # velocity over the period), the velocity's is Simpson's rule (exact on the ramps).
+        edges = _motion((np.arange(n + 1) - 0.5) * dt, speed, motion, noise, phase, servo_phase)
+        profile = dataclasses.replace(
+            profile,
+            velocity=(edges.velocity[:-1] + 4 * profile.velocity + edges.velocity[1:]) / 6,
+            acceleration=np.diff(edges.velocity) / dt,
+        )
 
     # The shift is relative to the quasi-static trial, whose offset is the reference.
     shift = 0.0

@@ -37,6 +37,7 @@ def simulate_study(
     quasi_static_speed: float = 1.0,
     noise: Noise | None = None,
     motion: Motion | None = None,
+    sampling: str = "instant",
     priors: Mapping[str, str | Mapping[str, Any]] | None = None,
     name: str = "Simulated study",
 ) -> Path:
@@ -78,6 +79,8 @@ def simulate_study(
         Speed of the quasi-static trials (deg/s).
     noise, motion : Noise, Motion, optional
         Passed to :func:`simulate_trial`.
+    sampling : {"instant", "average"}
+        Passed to :func:`simulate_trial`; ``"average"`` below 1 kHz.
     priors : mapping of str to (str or mapping), optional
         Prior spec written for each named body instead of the default inline table centred
         on the body's values: a prior name or path (str) or an inline table.
@@ -159,6 +162,7 @@ def simulate_study(
                 noise=noise,
                 motion=motion,
                 source=filename,
+                sampling=sampling,
             )
             write_trial_csv(
                 data / filename,
