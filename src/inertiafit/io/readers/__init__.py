@@ -10,20 +10,23 @@ Every reader is a function registered under a format name::
 and :func:`read_trial` dispatches on ``format``. A reader receives the ``columns``, ``units`` and
 ``calibration`` mappings of the manifest (or ``None``) and its own keyword options; it converts
 every channel to SI once (with :mod:`inertiafit.io.units`) and builds the Trial with
-:func:`~inertiafit.io.trial.make_trial`. Formats shipped: ``csv``, ``biodex``, ``humac`` and
-``analog``; their layouts are described in ``docs/formats.md``.
+:func:`~inertiafit.io.trial.make_trial`. Formats shipped: ``csv``, ``biodex``, ``humac``,
+``analog``, ``c3d`` (binary), ``vicon`` and ``isomed``; their layouts are described in
+``docs/formats.md`` and ``docs/devices/``.
 
 The package's modules:
 
 - :mod:`~inertiafit.io.readers.registry`: :func:`register_reader`, :func:`read_trial`,
-  :func:`available_formats`, :func:`reader_options` and the registry ``READERS``;
+  :func:`available_formats`, :func:`binary_formats`, :func:`reader_options` and the registry
+  ``READERS``;
 - :mod:`~inertiafit.io.readers.validation`: the checks of the ``columns``, ``units`` and
   ``calibration`` tables (also used by the manifest) and the resolution of each channel's unit;
 - :mod:`~inertiafit.io.readers.tables`: delimited text through pandas;
 - one module per format: :mod:`~inertiafit.io.readers.csv`,
   :mod:`~inertiafit.io.readers.analog`, :mod:`~inertiafit.io.readers.humac`,
-  :mod:`~inertiafit.io.readers.biodex`. Importing this package imports them, which registers
-  the formats.
+  :mod:`~inertiafit.io.readers.biodex`, :mod:`~inertiafit.io.readers.c3d`,
+  :mod:`~inertiafit.io.readers.vicon`, :mod:`~inertiafit.io.readers.isomed`. Importing this
+  package imports them, which registers the formats.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from __future__ import annotations
 from inertiafit.io.readers.registry import (
     Reader,
     available_formats,
+    binary_formats,
     read_trial,
     reader_options,
     register_reader,
@@ -50,6 +54,9 @@ from inertiafit.io.readers.csv import read_csv
 from inertiafit.io.readers.analog import read_analog
 from inertiafit.io.readers.humac import HUMAC_NOT_MEASURED, read_humac
 from inertiafit.io.readers.biodex import read_biodex
+from inertiafit.io.readers.c3d import read_c3d
+from inertiafit.io.readers.vicon import read_vicon
+from inertiafit.io.readers.isomed import read_isomed
 
 # isort: on
 
@@ -59,14 +66,18 @@ __all__ = [
     "HUMAC_NOT_MEASURED",
     "Reader",
     "available_formats",
+    "binary_formats",
     "check_calibration",
     "check_columns",
     "check_units",
     "read_analog",
     "read_biodex",
+    "read_c3d",
     "read_csv",
     "read_humac",
+    "read_isomed",
     "read_trial",
+    "read_vicon",
     "reader_options",
     "register_reader",
 ]

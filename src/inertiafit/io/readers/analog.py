@@ -11,7 +11,7 @@ import xarray as xr
 from inertiafit.errors import InputError
 from inertiafit.io.readers.registry import register_reader
 from inertiafit.io.readers.tables import load_table
-from inertiafit.io.readers.validation import DEFAULT_UNITS, check_calibration
+from inertiafit.io.readers.validation import DEFAULT_UNITS, calibrated_unit, check_calibration
 from inertiafit.io.trial import make_trial
 from inertiafit.io.units import QUANTITIES, to_si
 
@@ -70,13 +70,7 @@ def read_analog(
             )
     unit_of = {"time": (units or {}).get("time", DEFAULT_UNITS["time"])}
     for channel, (_, _, cal_unit) in cal.items():
-        user_unit = (units or {}).get(channel)
-        if cal_unit is not None and user_unit is not None and cal_unit != user_unit:
-            raise InputError(
-                f"{path}: units.{channel} = {user_unit!r} contradicts "
-                f"calibration.{channel}.unit = {cal_unit!r}; give the unit once"
-            )
-        unit_of[channel] = cal_unit or user_unit or DEFAULT_UNITS[channel]
+        unit_of[channel] = calibrated_unit(path, channel, cal_unit, units)
     names = {q: q for q in QUANTITIES} | dict(columns or {})
     volts, lines = load_table(path, names, delimiter=delimiter, decimal=decimal)
     si = [to_si(volts["time"], "time", unit_of["time"], where=f"{path}: units.time")]

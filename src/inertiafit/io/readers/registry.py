@@ -2,6 +2,9 @@
 
 A reader is registered with the decorator :func:`register_reader`; :func:`read_trial` checks
 the common arguments (:mod:`inertiafit.io.readers.validation`) and dispatches on ``format``.
+A reader registered with ``binary=True`` reads binary files (``c3d``); every other reader reads
+text, and :func:`read_trial` stops a binary file (:func:`binary_kind`) before it reaches one,
+with a message that names the formats that read binary files.
 """
 
 from __future__ import annotations
@@ -17,10 +20,15 @@ from inertiafit.errors import InputError
 from inertiafit.io.readers.validation import check_columns, check_units
 
 __all__ = [
+    "BINARY_FORMATS",
     "COMMON_PARAMETERS",
     "READERS",
+    "SNIFF_BYTES",
     "Reader",
     "available_formats",
+    "binary_formats",
+    "binary_kind",
+    "looks_like_c3d",
     "read_trial",
     "reader_options",
     "register_reader",
@@ -31,17 +39,28 @@ Reader = Callable[..., xr.Dataset]
 
 #: The registered readers, format name -> reader; filled by :func:`register_reader`.
 READERS: dict[str, Reader] = {}
+#: Formats whose reader reads binary files (registered with ``binary=True``).
+BINARY_FORMATS: set[str] = set()
 #: Parameters every reader takes; any others are the reader's own options.
 COMMON_PARAMETERS = ("path", "columns", "units", "calibration")
+#: How many bytes from the start of a file :func:`binary_kind` looks at.
+SNIFF_BYTES = 4096
+#: Processor-type byte of a C3D parameter section: Intel, DEC, MIPS (the C3D manual).
+_C3D_PROCESSORS = (84, 85, 86)
+#: Bytes other than tab, line feed, vertical tab, form feed and carriage return below 0x20.
+_CONTROL = bytes(set(range(32)) - {9, 10, 11, 12, 13})
 
 
-def register_reader(name: str) -> Callable[[Reader], Reader]:
+def register_reader(name: str, *, binary: bool = False) -> Callable[[Reader], Reader]:
     """Register a reader function under the format ``name`` (a decorator).
 
     Parameters
     ----------
     name : str
         The format name used by ``read_trial(format=...)`` and the manifest's ``format`` key.
+    binary : bool, optional
+        The reader reads binary files (default ``False``: text). :func:`read_trial` refuses a
+        binary file for a text format before calling its reader.
 
     Returns
     -------
@@ -57,6 +76,10 @@ def register_reader(name: str) -> Callable[[Reader], Reader]:
         if missing:
             raise TypeError(f"reader {func.__name__} lacks parameters {missing}")
         READERS[name] = func
+        if binary:
+            BINARY_FORMATS.add(name)
+        else:
+            BINARY_FORMATS.discard(name)
         return func
 
     return decorator
@@ -65,6 +88,62 @@ def register_reader(name: str) -> Callable[[Reader], Reader]:
 def available_formats() -> tuple[str, ...]:
     """Return the names of the registered trial formats."""
     return tuple(READERS)
+
+
+def binary_formats() -> tuple[str, ...]:
+    """Return the names of the registered formats that read binary files (e.g. ``c3d``)."""
+    return tuple(f for f in READERS if f in BINARY_FORMATS)
+
+
+def looks_like_c3d(head: bytes) -> bool:
+    """Whether ``head``, the first bytes of a file, starts like a C3D file.
+
+    A C3D file's first byte is the number of the 512-byte block where its parameter section
+    starts (at least 2), its second byte is ``0x50``, and byte 4 of the parameter section is the
+    processor type (84 Intel, 85 DEC, 86 MIPS). ``head`` must reach that byte (512 times the
+    first byte); a shorter ``head`` is not a C3D file.
+    """
+    if len(head) < 2 or head[1] != 0x50 or head[0] < 2:
+        return False
+    at = (head[0] - 1) * 512 + 3
+    return len(head) > at and head[at] in _C3D_PROCESSORS
+
+
+def binary_kind(path: Path) -> str | None:
+    """Say what a file is if it is not text, else ``None``; for the messages of text formats.
+
+    Parameters
+    ----------
+    path : Path
+        An existing file.
+
+    Returns
+    -------
+    str or None
+        ``"a C3D file"``; ``"UTF-16 text"`` (a UTF-16 byte-order mark); ``"a binary file"``
+        (a NUL byte, or more than 10 % control bytes, in the first ``SNIFF_BYTES`` bytes); or
+        ``None`` for anything else, including text in an 8-bit encoding and an empty file.
+
+    Raises
+    ------
+    InputError
+        If the file cannot be opened.
+    """
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(SNIFF_BYTES)
+            if len(head) >= 2 and head[1] == 0x50 and head[0] * 512 > len(head):
+                head += handle.read(head[0] * 512 - len(head))
+    except OSError as err:
+        raise InputError(f"{path}: cannot be opened ({err.strerror or err})") from None
+    if looks_like_c3d(head):
+        return "a C3D file"
+    if head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return "UTF-16 text"
+    head = head[:SNIFF_BYTES]
+    if b"\x00" in head or len(head.translate(None, _CONTROL)) < 0.9 * len(head):
+        return "a binary file"
+    return None
 
 
 def reader_options(format: str) -> tuple[str, ...]:
@@ -113,8 +192,8 @@ def read_trial(
     path : str or Path
         The trial file.
     format : str, optional
-        A registered format: ``"csv"`` (default), ``"biodex"``, ``"humac"``, ``"analog"``, or
-        one added with :func:`register_reader`.
+        A registered format: ``"csv"`` (default), ``"biodex"``, ``"humac"``, ``"analog"``,
+        ``"c3d"``, ``"vicon"``, ``"isomed"``, or one added with :func:`register_reader`.
     columns : mapping of str to str, optional
         File column name per channel (``time``, ``angle``, ``velocity``, ``torque``); channels
         left out keep the format's default names.
@@ -122,8 +201,8 @@ def read_trial(
         Unit per channel, e.g. ``{"torque": "ft*lbf"}``. Vendor formats take units from the
         file and only use these where the file is silent; a contradiction is an error.
     calibration : mapping, optional
-        For ``analog``: per channel ``{"scale": ..., "offset": ..., "unit": ...}`` meaning
-        ``value = scale * volts + offset`` in ``unit``.
+        For ``analog`` and ``c3d``: per channel ``{"scale": ..., "offset": ..., "unit": ...}``
+        meaning ``value = scale * volts + offset`` in ``unit``.
     **options
         Options of the format's reader (see :func:`reader_options`).
 
@@ -136,8 +215,9 @@ def read_trial(
     Raises
     ------
     InputError
-        For an unknown format or option, a missing file, and every problem with the file's
-        contents; the one-line message names the file and the field.
+        For an unknown format or option, a missing file, a binary file given to a text format
+        (the message names the formats that read binary files), and every problem with the
+        file's contents; the one-line message names the file and the field.
     """
     path = Path(path)
     reader = _get_reader(format, where=str(path))
@@ -150,6 +230,27 @@ def read_trial(
         )
     if not path.is_file():
         raise InputError(f"{path}: trial file not found")
+    if format not in BINARY_FORMATS:
+        kind = binary_kind(path)
+        if kind is not None:
+            raise InputError(_not_text_message(path, kind, format))
     columns = check_columns(columns, where=f"{path}: columns")
     units = check_units(units, where=f"{path}: units")
     return reader(path, columns=columns, units=units, calibration=calibration, **options)
+
+
+def _not_text_message(path: Path, kind: str, format: str) -> str:
+    binary = binary_formats()
+    reads_binary = ", ".join(f"'{f}'" for f in binary) if binary else "none"
+    listed = f"formats: {', '.join(READERS)}; reading binary files: {reads_binary}"
+    if kind == "a C3D file" and "c3d" in READERS:
+        return (
+            f"{path}: a C3D file (binary), but format '{format}' reads text; read it with "
+            f'format = "c3d" ({listed})'
+        )
+    if kind == "UTF-16 text":
+        return (
+            f"{path}: UTF-16 text (it starts with a UTF-16 byte-order mark); format '{format}' "
+            f"reads UTF-8 text: save the export as UTF-8 ({listed})"
+        )
+    return f"{path}: {kind}, not text; format '{format}' reads text files ({listed})"

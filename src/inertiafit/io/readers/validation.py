@@ -20,6 +20,7 @@ from inertiafit.io.units import QUANTITIES, canonical_unit
 __all__ = [
     "CALIBRATION_KEYS",
     "DEFAULT_UNITS",
+    "calibrated_unit",
     "check_calibration",
     "check_channel_table",
     "check_columns",
@@ -176,7 +177,7 @@ def check_number(value: object, *, where: str) -> float:
 
 
 def reject_calibration(path: Path, calibration: object, format: str) -> None:
-    """Refuse a ``calibration`` given to a reader other than ``analog``.
+    """Refuse a ``calibration`` given to a reader of calibrated values (not volts).
 
     Raises
     ------
@@ -185,9 +186,29 @@ def reject_calibration(path: Path, calibration: object, format: str) -> None:
     """
     if calibration:
         raise InputError(
-            f"{path}: calibration is only used by format 'analog' (this trial's format is "
-            f"'{format}'); remove it or set format = \"analog\""
+            f"{path}: calibration is only used by the formats of analog channels in volts "
+            f"('analog', 'c3d'; this trial's format is '{format}'); remove it or set the "
+            "format of the file"
         )
+
+
+def calibrated_unit(
+    path: Path, channel: str, cal_unit: str | None, units: Mapping[str, str] | None
+) -> str:
+    """The unit of a calibrated channel: its calibration's, or ``units``', or the default.
+
+    Raises
+    ------
+    InputError
+        If ``units`` and the calibration both give the channel's unit and they differ.
+    """
+    user_unit = (units or {}).get(channel)
+    if cal_unit is not None and user_unit is not None and cal_unit != user_unit:
+        raise InputError(
+            f"{path}: units.{channel} = {user_unit!r} contradicts "
+            f"calibration.{channel}.unit = {cal_unit!r}; give the unit once"
+        )
+    return cal_unit or user_unit or DEFAULT_UNITS[channel]
 
 
 def resolve_units(
