@@ -164,7 +164,10 @@ def test_read_trial_rejects_missing_file_format_option_and_calibration(tmp_path)
         InputError, match=r"t\.csv: unknown option 'sep' for format 'csv' \(options: delimiter"
     ):
         read_trial(path, sep=";")
-    with pytest.raises(InputError, match=r"t\.csv: calibration is only used by format 'analog'"):
+    with pytest.raises(
+        InputError,
+        match=r"t\.csv: calibration is only used by the formats of analog channels in volts \('analog', 'c3d'",
+    ):
         read_trial(path, calibration={"torque": {"scale": 1.0}})
     with pytest.raises(InputError, match=r"t\.csv: columns\.torque: expected a column name"):
         read_trial(path, columns={"torque": 3})
@@ -198,8 +201,10 @@ def test_biodex_fixture_ft_lb_from_metadata():
     assert float(trial.torque[0]) == pytest.approx(7.46 * FT_LBF, rel=1e-15)
     assert float(trial.torque[0]) == pytest.approx(10.114401894552247, rel=1e-14)
     assert float(trial.angle[0]) == pytest.approx(100 * DEG, rel=1e-15)
-    assert float(trial.velocity[0]) == pytest.approx(12 * DEG, rel=1e-15)
-    assert float(trial.velocity[4]) == pytest.approx(math.pi / 3, rel=1e-15)  # 60 deg/s
+    # VELOCITY follows POS_ANAT; against POSITION it is reversed to follow the angle
+    assert float(trial.velocity[0]) == pytest.approx(-12 * DEG, rel=1e-15)
+    assert float(trial.velocity[4]) == pytest.approx(-math.pi / 3, rel=1e-15)  # 60 deg/s
+    assert trial.attrs["flags"][0].startswith("velocity: column 'VELOCITY' runs against")
     assert float(trial.time[59]) == pytest.approx(0.59, abs=1e-12)
 
 
@@ -221,7 +226,8 @@ def test_biodex_six_header_line_variant_in_newton_metres():
     assert float(trial.time[0]) == 1.0
     assert float(trial.torque[0]) == 11.28
     assert float(trial.angle[0]) == pytest.approx(20 * DEG, rel=1e-15)
-    assert float(trial.velocity[0]) == pytest.approx(-math.pi / 6, rel=1e-15)
+    # VELOCITY follows POS_ANAT; against POSITION it is reversed to follow the angle
+    assert float(trial.velocity[0]) == pytest.approx(math.pi / 6, rel=1e-15)
     anatomical = read_trial(DATA / "biodex_6line.txt", format="biodex", anatomical=True)
     assert float(anatomical.angle[39]) == pytest.approx(66.6 * DEG, rel=1e-15)
 
@@ -298,22 +304,44 @@ def test_biodex_missing_column_and_not_a_biodex_file(tmp_path):
 
 
 # ----------------------------------------------------------------------------------- humac
+# Two fixtures reproduce the two sites of docs/devices/humac.md (values invented):
+# humac_stafford_style.csv: 16 columns, Status quoted and numbers not (".01"), ft-lbf; a
+#   leading Status-5 rest with real torque; 7 Status-5 rows with torque written as 0 at every
+#   braking; torque a magnitude, 0 through each reversal; Speed against d(Position)/dt; an
+#   end-of-set row (Status 11) and the closing row (Status 0, all zeros) at the end.
+# humac_crc_style.csv: 5 columns, every field quoted, Status "0001", N m; Status-5 rows with
+#   real torque (rest and the return stroke); torque a magnitude, near 0 (never exactly) where
+#   it changes sign; Speed with d(Position)/dt; "0011" and "0000" rows at the end.
+
+STAFFORD = DATA / "humac_stafford_style.csv"
+CRC = DATA / "humac_crc_style.csv"
+REVERSED = "velocity: column 'Speed(d/s)' runs against the derivative of 'Position(Degrees)'"
+MAGNITUDE_2_OF_2 = (
+    "torque: a magnitude, not a signed moment (never negative; near 0 at 2 of 2 reversals of "
+    "the motion)"
+)
 
 
-def test_humac_fixture_drops_status_5_rows_at_the_ends():
+def test_humac_old_fixture_drops_unmeasured_status_5_rows_at_the_ends():
     trial = read_trial(DATA / "humac_ftlb.csv", format="humac")
     assert trial.attrs["format"] == "humac"
     assert trial.attrs["sampling_rate"] == 100.0
-    assert trial.sizes["time"] == 40  # 46 rows, 3 + 3 with Status 5 dropped
-    # first kept row, line 5: "1",.03,87.6875,10,150
+    assert trial.sizes["time"] == 40  # 46 rows, 3 + 3 with Status 5 and torque 0 dropped
+    # first kept row, line 5: "1",.03,87.6875,10,150 (Position falls: Speed runs against it)
     assert float(trial.time[0]) == 0.03
     assert float(trial.torque[0]) == pytest.approx(13.558179483314004, rel=1e-15)
     assert float(trial.angle[0]) == pytest.approx(87.6875 * DEG, rel=1e-15)
-    assert float(trial.velocity[0]) == pytest.approx(150 * DEG, rel=1e-15)
+    assert float(trial.velocity[0]) == pytest.approx(-150 * DEG, rel=1e-15)
+    assert trial.attrs["flags"][0].startswith(REVERSED + " (ratio -1 over ")
     # last kept row, line 44: "1",.42,29.1875,19.75,150 ; no status-5 zero survives
     assert float(trial.torque[-1]) == pytest.approx(19.75 * FT_LBF, rel=1e-15)
     assert float(trial.time[-1]) == 0.42
     assert (trial.torque.values != 0).all()
+    # never negative: HUMAC's torque is a magnitude (no reversal in this short file)
+    assert trial.attrs["torque_kind"] == "magnitude"
+    assert trial.attrs["flags"][1] == (
+        "torque: a magnitude, not a signed moment (never negative in the 40 samples of the file)"
+    )
 
 
 def test_humac_every_field_quoted_newton_metres_deg_per_sec():
@@ -325,42 +353,159 @@ def test_humac_every_field_quoted_newton_metres_deg_per_sec():
     assert float(trial.angle[0]) == pytest.approx(10 * DEG, rel=1e-15)
     assert float(trial.velocity[0]) == pytest.approx(93.75 * DEG, rel=1e-15)
     assert float(trial.torque[29]) == 0.125
+    # a negative torque is a signed moment; Speed follows Position: nothing to flag
+    assert trial.attrs["torque_kind"] == "signed"
+    assert trial.attrs["flags"] == ()
 
 
-def humac_with_interior_status_5(tmp_path):
-    lines = (DATA / "humac_ftlb.csv").read_text().splitlines()
-    for i in (19, 20, 21):  # file lines 20-22
-        cells = lines[i].split(",")
-        cells[0], cells[3] = '"5"', "0"
-        lines[i] = ",".join(cells)
-    return write(tmp_path, "gap.csv", "\n".join(lines) + "\n")
+def test_humac_stafford_style_breaks_are_listed_and_segment_picks_one():
+    with pytest.raises(InputError) as info:
+        read_trial(STAFFORD, format="humac")
+    assert str(info.value) == (
+        f"{STAFFORD}: 4 separate stretches of samples, cut by torque not measured (Status 5, "
+        "written as 0) at lines 54-60, 107-113, 153-159; a trial is one stretch: pick it with "
+        "option segment (1 = lines 2-53 (0-0.51 s), 2 = lines 61-106 (0.59-1.04 s), "
+        "3 = lines 114-152 (1.12-1.5 s), 4 = lines 160-168 (1.58-1.66 s))"
+    )  # lines 169 ("11", end of set) and 170 ("0", closing row) are in no stretch
+    first = read_trial(STAFFORD, format="humac", segment=1)
+    assert first.sizes["time"] == 52  # lines 2-53
+    # the leading Status-5 rest carries real torque and is kept: "5",0,92.1875,7.3169,.0625
+    assert float(first.torque[0]) == pytest.approx(7.3169 * FT_LBF, rel=1e-15)
+    assert float(first.angle[0]) == pytest.approx(92.1875 * DEG, rel=1e-15)
+    assert float(first.velocity[0]) == pytest.approx(-0.0625 * DEG, rel=1e-15)  # reversed
+    # line 53: "1",.51,23.8125,14.7487,180 -> moving towards smaller angles
+    assert float(first.velocity[-1]) == pytest.approx(-180 * DEG, rel=1e-15)
+    assert first.attrs["torque_kind"] == "magnitude"
+    assert first.attrs["flags"] == (
+        (
+            f"{REVERSED} (ratio -1 over 71 stretches of motion); its sign was reversed to "
+            "follow the angle"
+        ),
+        # the evidence is the whole file's: this stroke alone shows no reversal
+        MAGNITUDE_2_OF_2,
+    )
+    third = read_trial(STAFFORD, format="humac", segment=3)
+    assert (float(third.time[0]), float(third.time[-1])) == (1.12, 1.5)
+    with pytest.raises(InputError, match=r"humac_stafford_style\.csv: only 9 samples"):
+        read_trial(STAFFORD, format="humac", segment=4)
+    with pytest.raises(InputError, match=r"option segment = 5 but the file has 4 stretch"):
+        read_trial(STAFFORD, format="humac", segment=5)
+    with pytest.raises(InputError, match=r"option segment must be an integer, got '1'"):
+        read_trial(STAFFORD, format="humac", segment="1")
 
 
-def test_humac_status_5_inside_the_trial_is_a_gap(tmp_path):
-    path = humac_with_interior_status_5(tmp_path)
+def test_humac_crc_style_keeps_status_5_rows_with_real_torque_and_drops_the_last_two():
+    trial = read_trial(CRC, format="humac")
+    assert trial.sizes["time"] == 242  # 244 rows: "0011" and "0000" are not samples
+    assert (float(trial.time[0]), float(trial.time[-1])) == (0.0, 2.41)
+    # line 10: "0005","0.080","89.250","1.923","0.000": measured while at rest
+    assert float(trial.torque[8]) == 1.923
+    # line 173: "0005","1.710","47.875","18.350","180.000": measured on the return stroke
+    assert float(trial.torque[171]) == 18.35
+    assert float(trial.velocity[171]) == pytest.approx(math.pi, rel=1e-15)  # not reversed
+    # the closing row's zeros are gone: the angle never drops to 0
+    assert float(trial.angle.min()) == pytest.approx(13.625 * DEG, rel=1e-15)
+    assert float(trial.angle[-1]) == pytest.approx(68.875 * DEG, rel=1e-15)
+    assert trial.attrs["flags"] == (MAGNITUDE_2_OF_2,)
+
+
+def humac_rows(tmp_path, name, rows, header=None):
+    header = (
+        header
+        or '"Status","Time(Seconds)","Position(Degrees)","Torque(Newton-Meters)","Speed(deg/sec)"'
+    )
+    text = header + "\n" + "\n".join(",".join(str(c) for c in r) for r in rows) + "\n"
+    return write(tmp_path, name, text)
+
+
+def test_humac_status_5_is_unmeasured_only_where_its_whole_run_is_exactly_0(tmp_path):
+    # 30 samples at 60 deg/s; rows 10-14 Status 5. Torque written as 0 on all five rows: a
+    # gap. One of them measured (0.8 N m): the run carries real torque and is kept whole.
+    def rows(run_torque):
+        out = []
+        for k in range(30):
+            status, torque = (5, run_torque[k - 10]) if 10 <= k < 15 else (1, 2.0 + 0.1 * k)
+            out.append((status, f"{k / 100:.2f}", 10 + 0.6 * k, torque, 60))
+        return out
+
+    gap = humac_rows(tmp_path, "gap.csv", rows([0, 0, 0, 0, 0]))
     with pytest.raises(
         InputError,
-        match=r"gap\.csv: column 'Status' is 5 \(torque not measured, written as 0\) at lines "
-        r"20-22 inside the trial, a gap; .* 2 measured stretches with option segment",
+        match=r"gap\.csv: 2 separate stretches of samples, cut by torque not "
+        r"measured \(Status 5, written as 0\) at lines 12-16; .*1 = lines 2-11 \(0-0\.09 s\)",
+    ):
+        read_trial(gap, format="humac")
+    assert read_trial(gap, format="humac", segment=2).sizes["time"] == 15
+    kept = read_trial(humac_rows(tmp_path, "kept.csv", rows([0, 0, 0.8, 0, 0])), format="humac")
+    assert kept.sizes["time"] == 30
+    np.testing.assert_array_equal(kept.torque.values[10:15], [0, 0, 0.8, 0, 0])
+
+
+def test_humac_fatigue_sets_are_separate_stretches(tmp_path):
+    # three 1-s sets at 70 deg, each closed by an end-of-set row (Status 11, the previous
+    # sample repeated); the file closes with the all-zero Status-0 row.
+    rows, t = [], 0.0
+    for s in range(3):
+        for k in range(100):
+            rows.append((1, f"{t:.2f}", 70.0 + 0.0625 * (k % 2), 50 + 10 * s + k % 7, 0))
+            t += 0.01
+        rows.append((11, f"{t:.2f}", *rows[-1][2:]))
+        t += 0.01
+    rows.append((0, f"{t:.2f}", 0, 0, 0))
+    path = humac_rows(tmp_path, "fatigue.csv", rows)
+    with pytest.raises(
+        InputError,
+        match=r"fatigue\.csv: 3 separate stretches of samples, cut by end of set \(Status 11 "
+        r"or 15\) at lines 102, 203; .* \(1 = lines 2-101 \(0-0\.99 s\), 2 = lines 103-202 "
+        r"\(1\.01-2 s\), 3 = lines 204-303 \(2\.02-3\.01 s\)\)$",
     ):
         read_trial(path, format="humac")
-
-
-def test_humac_segment_option_picks_one_measured_stretch(tmp_path):
-    path = humac_with_interior_status_5(tmp_path)
-    first = read_trial(path, format="humac", segment=1)
     second = read_trial(path, format="humac", segment=2)
-    assert first.sizes["time"] == 15  # lines 5-19
-    assert second.sizes["time"] == 22  # lines 23-44
-    assert float(second.time[0]) == 0.21
-    with pytest.raises(InputError, match=r"gap\.csv: option segment = 3 but the file has 2"):
-        read_trial(path, format="humac", segment=3)
+    assert second.sizes["time"] == 100
+    assert float(second.torque[0]) == 60.0
+    assert float(np.degrees(np.ptp(second.angle.values))) == pytest.approx(0.0625)
+    assert read_trial(path, format="humac", segment=3).time.values[-1] == 3.01  # no 0 row
 
 
-def test_humac_all_rows_status_5(tmp_path):
+def test_humac_without_status_column_still_drops_the_closing_row(tmp_path):
+    header = '"Time(Seconds)","Position(Degrees)","Torque(Newton-Meters)","Speed(deg/sec)"'
+    rows = [(f"{k / 100:.2f}", 10 + 0.6 * k, 2.0, 60) for k in range(20)]
+    trial = read_trial(
+        humac_rows(tmp_path, "ns.csv", [*rows, ("0.20", 0, 0, 0)], header), format="humac"
+    )
+    assert trial.sizes["time"] == 20
+    # negative control: a last row at 0 deg after a row at 0 deg is a sample
+    rows = [(f"{k / 100:.2f}", 0.0, 0.0, 0) for k in range(21)]
+    assert (
+        read_trial(humac_rows(tmp_path, "z.csv", rows, header), format="humac").sizes["time"] == 21
+    )
+
+
+def test_humac_unknown_status_is_read_and_flagged_and_a_bad_status_is_an_error(tmp_path):
+    rows = [(7 if k in (3, 4) else 1, f"{k / 100:.2f}", 10 + 0.6 * k, 2.0, 60) for k in range(20)]
+    trial = read_trial(humac_rows(tmp_path, "s7.csv", rows), format="humac")
+    assert trial.sizes["time"] == 20
+    assert trial.attrs["flags"][0] == (
+        "Status 7 at lines 5-6: not a code this reader knows (0, 1, 5, 11, 15); read as samples"
+    )
+    rows[6] = (1.5, *rows[6][1:])
+    with pytest.raises(
+        InputError, match=r"s15\.csv: line 8, column 'Status': 1\.5 is not a status code"
+    ):
+        read_trial(humac_rows(tmp_path, "s15.csv", rows), format="humac")
+
+
+def test_humac_all_rows_unmeasured(tmp_path):
     text = (DATA / "humac_ftlb.csv").read_text().replace('"1",', '"5",')
-    with pytest.raises(InputError, match=r"all5\.csv: column 'Status' is 5 .* on every row"):
-        read_trial(write(tmp_path, "all5.csv", text), format="humac")
+    # every row Status 5 but most with real torque: one measured run, read whole (46 rows)
+    assert read_trial(write(tmp_path, "all5.csv", text), format="humac").sizes["time"] == 46
+    zero = "\n".join(
+        ",".join(c if i != 3 else "0" for i, c in enumerate(line.split(",")))
+        for line in text.splitlines()[1:]
+    )
+    zero = text.splitlines()[0] + "\n" + zero + "\n"
+    with pytest.raises(InputError, match=r"all0\.csv: no row is a measured sample \(Status 5"):
+        read_trial(write(tmp_path, "all0.csv", zero), format="humac")
 
 
 def test_humac_unknown_header_unit_and_missing_column(tmp_path):

@@ -2,39 +2,97 @@
 
 A Trial is the contract between the readers and the processing stage:
 
-- coordinate ``time`` (s, float64, strictly increasing, starting wherever the file starts);
+- coordinate ``time`` (s, float64, strictly increasing, evenly sampled, starting wherever the
+  file starts);
 - data variables ``angle`` (rad), ``velocity`` (rad/s) and ``torque`` (N m), float64 along
-  ``time``; every variable and the coordinate carry ``attrs["units"]``;
+  ``time``; every variable and the coordinate carry ``attrs["units"]``; ``velocity`` has the
+  sign of the derivative of ``angle``;
 - dataset attrs ``source`` (str, the file), ``sampling_rate`` (Hz, float, the inverse of the
-  median time step to 12 significant digits) and ``format`` (the reader's name).
+  median time step to 12 significant digits), ``format`` (the reader's name), ``torque_kind``
+  (``"signed"``, or ``"magnitude"`` when the file writes the torque without its sign) and
+  ``flags`` (a tuple of one-line strings: what was corrected or noticed while reading, such as
+  a velocity sign reversed to follow the angle).
 
 :func:`make_trial` is the only way readers build one: it checks what every later stage relies
-on (finite values, increasing time without gaps, enough samples) and names the file, the column
-and the row of the first problem.
+on (finite values, increasing and evenly sampled time, enough samples, a velocity that is the
+angle's derivative) and names the file, the column and the row of the first problem.
+:func:`apply_torque_sign` gives the torque its sign as the manifest's ``torque_sign`` says (a
+factor of +-1, or ``"motion"`` for a torque written as a magnitude).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import xarray as xr
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from inertiafit.errors import InputError
 from inertiafit.io.units import QUANTITIES, SI_UNITS
 
 __all__ = [
     "GAP_FACTOR",
+    "MAGNITUDE_FLAG",
     "MIN_SAMPLES",
+    "MIN_SWEEP",
+    "MOTION_FLOOR",
+    "REVERSAL_SWEEP",
+    "SHORT_STEP_FACTOR",
+    "TORQUE_SIGNS",
+    "VELOCITY_AGREEMENT",
+    "VELOCITY_SCALE_FLAG",
+    "VELOCITY_SCALE_LIMIT",
+    "VelocityCheck",
+    "apply_torque_sign",
+    "compare_velocity",
+    "magnitude_evidence",
     "make_trial",
+    "motion_direction",
+    "reversals",
 ]
 
 #: Fewest samples a trial may have; fewer cannot hold an acceleration window or a fit.
 MIN_SAMPLES = 10
 #: A time step longer than this multiple of the median step is a gap (lost samples).
 GAP_FACTOR = 1.5
+#: A time step shorter than this multiple of the median step is uneven sampling (a repeated or
+#: inserted sample). Steps rounded in the file (1500 Hz written to 0.1 ms) stay well inside.
+SHORT_STEP_FACTOR = 0.5
+#: A stretch of the trial tests the velocity against the angle only if the angle changes by at
+#: least this much over it (rad): 2 deg, 32 steps of a 1/16-deg encoder, so the angle's
+#: quantisation moves the comparison by 3 % at most. A trial that never moves this far
+#: (isometric, or a few degrees at 1 deg/s) is not checked.
+MIN_SWEEP = math.radians(2.0)
+#: Lengths (s) of the stretches over which the change of the angle is compared with the
+#: integral of the velocity: short ones for fast moves, long ones for 1 deg/s.
+_STRETCHES = (0.05, 0.2, 1.0, 5.0, 20.0)
+#: A velocity beyond this factor (either way) of d(angle)/dt is in other units than the angle:
+#: the nearest mix-up is rpm read as deg/s (6); deg/rad is 57.3 and ms/s 1000.
+VELOCITY_SCALE_LIMIT = 4.0
+#: A velocity beyond this factor, but within the limit, is flagged: it does not match the angle,
+#: but no unit explains it. The measured ratio is 0.99 on the HUMAC files.
+VELOCITY_SCALE_FLAG = 1.5
+#: Fraction of the stretches whose ratio must have the median's sign, and quartile ratio
+#: (75th / 25th percentile of ``|ratio|``) they may not exceed, for the comparison to decide.
+VELOCITY_AGREEMENT = 0.8
+_VELOCITY_SPREAD = 1.5
+#: A reversal of the motion counts when the angle moves at least this far (rad) each side.
+REVERSAL_SWEEP = math.radians(5.0)
+#: Within this time (s) of a reversal, a torque written as a magnitude falls to (near) zero.
+_REVERSAL_REACH = 0.1
+#: "Near zero": at most this fraction of the torque's 99th percentile.
+_NEAR_ZERO = 0.02
+#: Speeds (rad/s) below this, or below 5 % of the trial's 99th-percentile speed, are rest when
+#: the torque is signed by the direction of motion (the quantised velocity of a shaft at rest).
+MOTION_FLOOR = math.radians(2.0)
+#: Values of the manifest's ``torque_sign``.
+TORQUE_SIGNS = (1, -1, "motion")
+#: How the flag of a torque written as a magnitude starts (its evidence follows).
+MAGNITUDE_FLAG = "torque: a magnitude, not a signed moment"
 
 _LONG_NAMES = {
     "time": "time",
@@ -42,6 +100,15 @@ _LONG_NAMES = {
     "velocity": "angular velocity of the shaft",
     "torque": "moment measured at the shaft",
 }
+#: Unit mix-ups by the ratio velocity / d(angle)/dt they cause, in SI.
+_UNIT_MIXUPS = (
+    (180 / math.pi, "velocity in deg/s read as rad/s, or angle in rad read as deg"),
+    (math.pi / 180, "velocity in rad/s read as deg/s, or angle in deg read as rad"),
+    (1000.0, "time in ms read as s"),
+    (1 / 1000, "time in s read as ms"),
+    (60.0, "velocity per minute read as per second"),
+    (6.0, "velocity in rpm read as deg/s"),
+)
 
 
 def make_trial(
@@ -55,8 +122,18 @@ def make_trial(
     columns: Mapping[str, str] | None = None,
     lines: ArrayLike | None = None,
     attrs: Mapping[str, Any] | None = None,
+    units: Mapping[str, str] | None = None,
+    flags: Sequence[str] = (),
+    torque_magnitude: str | None = None,
 ) -> xr.Dataset:
     """Check four channels in SI units and build a Trial dataset.
+
+    Beyond finite values and enough samples, time must increase with even steps (no gap longer
+    than ``GAP_FACTOR`` and no step shorter than ``SHORT_STEP_FACTOR`` times the median step),
+    and the velocity is compared with the derivative of the angle (:func:`compare_velocity`):
+    a velocity that runs against the angle is reversed and the trial flagged; one off by a unit
+    factor is an error. A torque that is never negative and falls to zero where the motion
+    reverses (:func:`magnitude_evidence`) is recorded as ``torque_kind = "magnitude"``.
 
     Parameters
     ----------
@@ -80,6 +157,17 @@ def make_trial(
         1-based sample number, reported as "sample").
     attrs : mapping, optional
         Extra dataset attributes (str, int or float values) recorded by the reader.
+    units : mapping of str to str, optional
+        The unit each channel was read in, named in the message about a velocity that does not
+        match the angle's units.
+    flags : sequence of str, optional
+        The reader's own flags (one line each); the trial's ``attrs["flags"]`` starts with
+        them.
+    torque_magnitude : str, optional
+        The reader's evidence that its format writes the torque as a magnitude (a phrase such
+        as ``"never negative in the whole file"``), when it knows better than this trial's own
+        samples (a single stroke cut from a file shows no reversal). ``None``: look for it in
+        the samples.
 
     Returns
     -------
@@ -90,8 +178,9 @@ def make_trial(
     ------
     InputError
         If the channels differ in length, have fewer than ``MIN_SAMPLES`` samples, contain a
-        NaN or infinite value, if time does not strictly increase, or if a time step exceeds
-        ``GAP_FACTOR`` times the median step (a gap).
+        NaN or infinite value, if time does not strictly increase, if a time step exceeds
+        ``GAP_FACTOR`` times the median step (a gap) or falls short of ``SHORT_STEP_FACTOR``
+        times it, or if the velocity is a unit factor away from the angle's derivative.
     """
     names = {q: q for q in QUANTITIES}
     if columns:
@@ -154,6 +243,27 @@ def make_trial(
             f"{dt[i]:g} s between t = {t[i]:g} s and t = {t[i + 1]:g} s, more than "
             f"{GAP_FACTOR:g} x the median step {step:g} s (samples missing?)"
         )
+    short = dt < SHORT_STEP_FACTOR * step
+    if short.any():
+        i = int(np.argmax(short))
+        raise InputError(
+            f"{source}: uneven sampling in column '{names['time']}' at {row_word} "
+            f"{where[i + 1]}: {dt[i]:g} s between t = {t[i]:g} s and t = {t[i + 1]:g} s, less "
+            f"than {SHORT_STEP_FACTOR:g} x the median step {step:g} s (a repeated or inserted "
+            "sample?); the samples must be evenly spaced"
+        )
+
+    notes = [str(f) for f in flags]
+    check = compare_velocity(t, arrays["angle"], arrays["velocity"])
+    if check is not None:
+        reverse, said = _judge_velocity(check, source=source, names=names, units=units)
+        if reverse:
+            arrays["velocity"] = -arrays["velocity"]
+        notes.extend(said)
+    rate = 1.0 / step
+    evidence = torque_magnitude or magnitude_evidence(arrays["angle"], arrays["torque"], rate)
+    if evidence:
+        notes.append(f"{MAGNITUDE_FLAG} ({evidence})")
 
     data_vars = {
         q: (
@@ -166,13 +276,383 @@ def make_trial(
     dataset_attrs: dict[str, Any] = {
         "source": str(source),
         # 12 significant digits: 100 Hz stays 100.0 after ms -> s rounding of the steps.
-        "sampling_rate": float(f"{1.0 / step:.12g}"),
+        "sampling_rate": float(f"{rate:.12g}"),
         "format": str(format),
+        "torque_kind": "magnitude" if evidence else "signed",
     }
     if attrs:
-        dataset_attrs.update(attrs)
+        dataset_attrs.update({k: v for k, v in attrs.items() if k != "flags"})
+        notes = [str(f) for f in attrs.get("flags", ())] + notes
+    dataset_attrs["flags"] = tuple(dict.fromkeys(notes))
     return xr.Dataset(
         data_vars,
         coords={"time": ("time", t, {"units": SI_UNITS["time"], "long_name": "time"})},
         attrs=dataset_attrs,
     )
+
+
+@dataclass(frozen=True)
+class VelocityCheck:
+    """The velocity compared with the derivative of the angle (:func:`compare_velocity`).
+
+    Attributes
+    ----------
+    ratio : float
+        Median over the stretches of ``integral of velocity dt / change of angle``: 1 for a
+        consistent trial, -1 for a velocity of the opposite sign, 57.3 for a velocity in deg/s
+        read as rad/s.
+    stretches : int
+        Number of stretches compared (each sweeps at least :data:`MIN_SWEEP`).
+    agreement : float
+        Fraction of the stretches whose ratio has the sign of ``ratio``.
+    spread : float
+        75th over 25th percentile of ``|ratio|`` among those stretches.
+    """
+
+    ratio: float
+    stretches: int
+    agreement: float
+    spread: float
+
+    @property
+    def decisive(self) -> bool:
+        """Whether the stretches agree enough to correct the sign or refuse the scale."""
+        return self.agreement >= VELOCITY_AGREEMENT and self.spread <= _VELOCITY_SPREAD
+
+
+def compare_velocity(
+    time: ArrayLike, angle: ArrayLike, velocity: ArrayLike
+) -> VelocityCheck | None:
+    """Compare a velocity channel with the derivative of the angle, robustly.
+
+    Over stretches of 0.05, 0.2, 1, 5 and 20 s that start at every sample, the change of the
+    angle is compared with the integral of the velocity (trapezoids): no derivative of a
+    quantised angle is taken, and only stretches over which the angle changes by at least
+    :data:`MIN_SWEEP` count, so a shaft that barely moves (isometric, or 1 deg/s on a 1/16-deg
+    encoder over a short stretch) cannot produce a false alarm.
+
+    Parameters
+    ----------
+    time, angle, velocity : array_like[nsamples]
+        Seconds, radians, radians per second (finite, time increasing).
+
+    Returns
+    -------
+    VelocityCheck or None
+        ``None`` when no stretch sweeps :data:`MIN_SWEEP` (nothing to compare).
+    """
+    t = np.asarray(time, dtype=np.float64)
+    theta = np.asarray(angle, dtype=np.float64)
+    omega = np.asarray(velocity, dtype=np.float64)
+    n = t.size
+    if n < 2:
+        return None
+    with np.errstate(all="ignore"):
+        integral = np.concatenate(([0.0], np.cumsum(0.5 * np.diff(t) * (omega[1:] + omega[:-1]))))
+        step = float(np.median(np.diff(t)))
+        ratios = []
+        for length in sorted({min(max(round(s / step), 1), n - 1) for s in _STRETCHES}):
+            change = theta[length:] - theta[:-length]
+            moved = np.abs(change) >= MIN_SWEEP
+            if moved.any():
+                ratios.append((integral[length:] - integral[:-length])[moved] / change[moved])
+        if not ratios:
+            return None
+        r = np.concatenate(ratios)
+        r = r[np.isfinite(r)]
+        if r.size == 0:
+            return None
+        ratio = float(np.median(r))
+        agree = np.abs(r[np.sign(r) == np.sign(ratio)])
+        agreement = agree.size / r.size
+        if agree.size:
+            q25, q75 = np.percentile(agree, [25, 75])
+            spread = float(q75 / q25) if q25 > 0 else math.inf
+        else:
+            spread = math.inf
+    return VelocityCheck(ratio=ratio, stretches=int(r.size), agreement=agreement, spread=spread)
+
+
+def _judge_velocity(
+    check: VelocityCheck,
+    *,
+    source: str,
+    names: Mapping[str, str],
+    units: Mapping[str, str] | None,
+) -> tuple[bool, list[str]]:
+    """Whether to reverse the velocity, and the flags; raise for a unit factor."""
+    v, a = names["velocity"], names["angle"]
+    size = abs(check.ratio)
+    if not check.decisive:
+        note = (
+            f"velocity: column '{v}' does not follow the derivative of '{a}' consistently "
+            f"({check.agreement:.0%} of {check.stretches} stretches agree in sign, median "
+            f"ratio {check.ratio:.3g}); not corrected"
+        )
+        return False, [note]
+    if not 1 / VELOCITY_SCALE_LIMIT <= size <= VELOCITY_SCALE_LIMIT:
+        raise InputError(_unit_message(source, check, names, units))
+    said = []
+    if check.ratio < 0:
+        said.append(
+            f"velocity: column '{v}' runs against the derivative of '{a}' (ratio "
+            f"{check.ratio:.3g} over {check.stretches} stretches of motion); its sign was "
+            "reversed to follow the angle"
+        )
+    if not 1 / VELOCITY_SCALE_FLAG <= size <= VELOCITY_SCALE_FLAG:
+        said.append(
+            f"velocity: column '{v}' is {size:.3g} x the derivative of '{a}' (over "
+            f"{check.stretches} stretches of motion), a factor no unit explains; left as it is"
+        )
+    return check.ratio < 0, said
+
+
+def _unit_message(
+    source: str,
+    check: VelocityCheck,
+    names: Mapping[str, str],
+    units: Mapping[str, str] | None,
+) -> str:
+    size = abs(check.ratio)
+    causes = [text for factor, text in _UNIT_MIXUPS if abs(math.log(size / factor)) < 0.15]
+    cause = f" ({causes[0]}?)" if causes else ""
+    read_as = ""
+    if units:
+        read_as = (
+            " (read as "
+            + ", ".join(f"{q} {units[q]!r}" for q in ("time", "angle", "velocity") if q in units)
+            + ")"
+        )
+    sign = "" if check.ratio > 0 else ", and of the opposite sign"
+    return (
+        f"{source}: column '{names['velocity']}' is {size:.3g} x the derivative of column "
+        f"'{names['angle']}'{sign} (median over {check.stretches} stretches of motion): the "
+        f"units of time, angle and velocity disagree{cause}{read_as}; correct the units of "
+        "these columns"
+    )
+
+
+def reversals(angle: ArrayLike, sweep: float = REVERSAL_SWEEP) -> NDArray[np.int64]:
+    """Indices where the motion reverses: turning points with ``sweep`` rad of travel each side.
+
+    A zigzag over the angle: an extreme counts once the angle has moved ``sweep`` away from it,
+    so quantisation steps and noise smaller than ``sweep`` are ignored. The first and last
+    samples are never turning points.
+
+    Parameters
+    ----------
+    angle : array_like[nsamples]
+        Radians.
+    sweep : float
+        Travel (rad) needed on each side.
+
+    Returns
+    -------
+    ndarray of int
+        Sample indices of the turning points, increasing.
+    """
+    theta = np.asarray(angle, dtype=np.float64)
+    turns: list[int] = []
+    if theta.size < 3 or float(np.ptp(theta)) < sweep:
+        return np.array(turns, dtype=np.int64)
+    # Only the samples where the angle changes matter (a quantised slow move repeats values).
+    keep = np.flatnonzero(np.concatenate(([True], np.diff(theta) != 0)))
+    values = theta[keep].tolist()
+    low = high = 0  # positions in ``values`` of the running extremes, before the first leg
+    direction = 0  # +1 rising, -1 falling, 0 until the first leg of ``sweep`` is travelled
+    extreme = 0
+    for i, value in enumerate(values):
+        if direction == 0:
+            if value > values[high]:
+                high = i
+            if value < values[low]:
+                low = i
+            if values[high] - values[low] >= sweep:
+                direction, extreme = (1, high) if high > low else (-1, low)
+        elif direction > 0:
+            if value > values[extreme]:
+                extreme = i
+            elif values[extreme] - value >= sweep:
+                turns.append(extreme)
+                direction, extreme = -1, i
+        elif value < values[extreme]:
+            extreme = i
+        elif value - values[extreme] >= sweep:
+            turns.append(extreme)
+            direction, extreme = 1, i
+    return keep[np.array(turns, dtype=np.int64)]
+
+
+def magnitude_evidence(angle: ArrayLike, torque: ArrayLike, rate: float) -> str | None:
+    """Evidence that a torque channel is a magnitude: never negative, ~0 where motion reverses.
+
+    A signed moment changes sign as the motion reverses (the torque that drove the body one
+    way brakes it, then drives it back); written as a magnitude it is never negative and
+    falls to zero there instead. Both signs of evidence are required: a quasi-static trial's
+    gravity moment may well be one-signed over a sweep back and forth, but it does not vanish
+    at every reversal.
+
+    Parameters
+    ----------
+    angle : array_like[nsamples]
+        Radians.
+    torque : array_like[nsamples]
+        Any unit; NaN where the torque was not measured (ignored).
+    rate : float
+        Sampling rate (Hz).
+
+    Returns
+    -------
+    str or None
+        A phrase such as ``"never negative; near 0 at 9 of 9 reversals of the motion"``, or
+        ``None`` unless the torque is never negative and falls within 2 % of its 99th
+        percentile within 0.1 s of at least half of two or more reversals.
+    """
+    tau = np.asarray(torque, dtype=np.float64)
+    measured = tau[np.isfinite(tau)]
+    if measured.size == 0 or float(measured.min()) < 0:
+        return None
+    turns = reversals(angle)
+    if turns.size < 2:
+        return None
+    scale = float(np.percentile(measured, 99))
+    reach = max(1, round(_REVERSAL_REACH * rate))
+    near = 0
+    for i in turns:
+        around = tau[max(i - reach, 0) : i + reach + 1]
+        around = around[np.isfinite(around)]
+        if around.size and float(around.min()) <= _NEAR_ZERO * scale:
+            near += 1
+    if near < 2 or near < 0.5 * turns.size:
+        return None
+    return f"never negative; near 0 at {near} of {turns.size} reversals of the motion"
+
+
+def motion_direction(velocity: ArrayLike, *, floor: float = MOTION_FLOOR) -> NDArray[np.float64]:
+    """The direction of motion (+1 or -1) at every sample.
+
+    Where the shaft moves (``|velocity|`` at least ``floor`` and 5 % of its 99th percentile),
+    the sign of the velocity; where it rests, the direction of the motion that follows (a
+    shaft at rest before a stroke is loaded in the stroke's direction), and after the last
+    motion the direction of that motion.
+
+    Parameters
+    ----------
+    velocity : array_like[nsamples]
+        Radians per second, with the sign of the angle's derivative.
+    floor : float
+        Speed (rad/s) below which the shaft is at rest.
+
+    Returns
+    -------
+    ndarray of float
+        +1.0 or -1.0 per sample; all zeros if the shaft never moves.
+    """
+    omega = np.asarray(velocity, dtype=np.float64)
+    speed = np.abs(omega)
+    if speed.size == 0:
+        return np.zeros(0)
+    moving = speed >= max(floor, 0.05 * float(np.percentile(speed, 99)))
+    if not moving.any():
+        return np.zeros_like(omega)
+    index = np.flatnonzero(moving)
+    # For every sample, the next moving sample at or after it (or the last moving one).
+    nxt = np.searchsorted(index, np.arange(omega.size))
+    nxt = index[np.minimum(nxt, index.size - 1)]
+    return np.sign(omega[nxt])
+
+
+def apply_torque_sign(trial: xr.Dataset, torque_sign: object, *, kind: str) -> xr.Dataset:
+    """Give a Trial's torque its sign as the manifest's ``torque_sign`` says.
+
+    - ``1`` or ``-1`` multiplies the torque (a device that reports the opposite sign);
+    - ``"motion"`` takes a torque written as a magnitude (``torque_kind = "magnitude"``) and
+      gives it the direction of motion (:func:`motion_direction`). That is right where the
+      torque drives the motion: in the acceleration window of a fast trial, where the body
+      speeds up from rest and the torque has the sign of the acceleration, i.e. of the
+      velocity. It is wrong where the torque brakes (the end of a stroke, outside the window)
+      and for a quasi-static trial, whose gravity moment may oppose the motion: refused there.
+
+    A magnitude read with ``1`` or ``-1`` is refused for a fast trial (its inertia would take
+    the sign of its direction of motion, and no factor fixes both directions) and flagged for a
+    quasi-static one (right only while the moment keeps one sign over the sweep).
+
+    Parameters
+    ----------
+    trial : xarray.Dataset
+        A Trial from :func:`make_trial`.
+    torque_sign : {1, -1, "motion"}
+        The manifest's value.
+    kind : {"quasi-static", "fast"}
+        The trial's kind.
+
+    Returns
+    -------
+    xarray.Dataset
+        A copy with the torque signed, ``attrs["torque_sign"]`` set and the torque's flag
+        completed.
+
+    Raises
+    ------
+    InputError
+        An unknown ``torque_sign``; ``"motion"`` on a quasi-static trial, on a signed torque
+        (one with negative values) or on a shaft that never moves; a magnitude read with
+        ``1`` or ``-1`` in a fast trial.
+    """
+    source = trial.attrs.get("source", "trial")
+    if torque_sign not in TORQUE_SIGNS or isinstance(torque_sign, bool):
+        raise InputError(f'{source}: torque_sign: expected 1, -1 or "motion", got {torque_sign!r}')
+    out = trial.copy()
+    torque = out["torque"].values
+    flags = list(out.attrs.get("flags", ()))
+    magnitude = out.attrs.get("torque_kind") == "magnitude"
+    evidence = next((f for f in flags if f.startswith(MAGNITUDE_FLAG)), None)
+    if torque_sign == "motion":
+        if kind == "quasi-static":
+            raise InputError(
+                f'{source}: torque_sign = "motion" signs the torque by the direction of motion, '
+                "which is wrong for a quasi-static trial (gravity and motion can oppose); give "
+                "it torque_sign = 1 or -1, the sign of the moment that holds the body"
+            )
+        if float(torque.min()) < 0:
+            raise InputError(
+                f'{source}: torque_sign = "motion" is for a torque written as a magnitude, but '
+                f"this torque is signed (down to {float(torque.min()):.4g} N m); use "
+                "torque_sign = 1 or -1"
+            )
+        direction = motion_direction(out["velocity"].values)
+        if not direction.any():
+            raise InputError(
+                f'{source}: torque_sign = "motion" needs motion, but the velocity never exceeds '
+                f"{math.degrees(MOTION_FLOOR):g} deg/s"
+            )
+        out["torque"] = out["torque"].copy(data=np.abs(torque) * direction)
+        note = 'signed by the direction of motion (torque_sign = "motion")'
+        flags = _complete(flags, evidence, note, prefix="torque: ")
+    else:
+        if magnitude and kind == "fast":
+            detail = f" {evidence[len(MAGNITUDE_FLAG) :].strip()}" if evidence else ""
+            raise InputError(
+                f"{source}: torque is written as a magnitude{detail}, not a signed moment: "
+                "read as it is, the inertia takes the sign of the direction of motion; set "
+                'torque_sign = "motion" for this fast trial (signs it by the direction of '
+                "motion, right in its acceleration window)"
+            )
+        if torque_sign != 1:
+            out["torque"] = out["torque"].copy(data=torque_sign * torque)
+        if magnitude:
+            note = (
+                f"read x torque_sign = {torque_sign}: right only while the moment keeps one "
+                "sign over the sweep"
+            )
+            flags = _complete(flags, evidence, note, prefix="torque: ")
+    out.attrs["flags"] = tuple(flags)
+    out.attrs["torque_sign"] = torque_sign
+    return out
+
+
+def _complete(flags: list[str], flag: str | None, note: str, *, prefix: str) -> list[str]:
+    """``flags`` with ``flag`` followed by ``note`` (or ``note`` alone, as a new flag)."""
+    if flag is None:
+        return [*flags, prefix + note]
+    return [f"{f}; {note}" if f == flag else f for f in flags]

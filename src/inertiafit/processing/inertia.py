@@ -27,6 +27,7 @@ import xarray as xr
 from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
+from inertiafit.io.trial import apply_torque_sign
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
@@ -159,6 +160,10 @@ def estimate_inertia(
     source = source_of(trial)
     if torque_sign not in (1, -1):
         raise InputError(f"{source}: torque_sign: expected +1 or -1, got {torque_sign!r}")
+    if trial.attrs.get("torque_kind") == "magnitude" and "torque_sign" not in trial.attrs:
+        # read with read_trial and never signed: refuse with the real cause, not a negative
+        # inertia and a torque_sign = -1 hint that cannot help
+        apply_torque_sign(trial, torque_sign, kind="fast")
     rate = sampling_rate(trial)
     time = trial["time"].values
     raw_torque = torque_sign * trial["torque"].values
