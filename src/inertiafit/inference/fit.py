@@ -70,8 +70,18 @@ def _observed(model: Model) -> xr.Dataset:
     return xr.Dataset(out)
 
 
-def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> xr.DataTree:
-    """Package a sampler run and its model as an ArviZ DataTree (see :mod:`inertiafit.posterior`)."""
+def build_tree(
+    model: Model,
+    run,
+    *,
+    seed: int,
+    inputs: dict | None = None,
+    provenance: dict | None = None,
+) -> xr.DataTree:
+    """Package a sampler run and its model as an ArviZ DataTree (see :mod:`inertiafit.posterior`).
+
+    ``inputs`` and ``provenance`` are stored as JSON in the root attributes of those names.
+    """
     bodies = list(model.bodies)
     n_chain, n_draw = run.chain.shape[:2]
     coords = {"chain": np.arange(n_chain), "draw": np.arange(n_draw), "body": bodies}
@@ -153,6 +163,7 @@ def build_tree(model: Model, run, *, seed: int, inputs: dict | None = None) -> x
             }
         ),
         "inputs": inputs_json(inputs or {}),
+        "provenance": inputs_json(provenance or {}),
         "sampled_coordinates": "log(m x), log(I) per body; psi = atan(x / rho) drawn exactly",
     }
     return xr.DataTree.from_dict(
@@ -174,6 +185,7 @@ def fit(
     seed: int = 0,
     settings: SamplerSettings | None = None,
     inputs: dict | None = None,
+    provenance: dict | None = None,
 ) -> Posterior:
     """Sample the posterior of a model and return it as a :class:`Posterior`.
 
@@ -186,11 +198,14 @@ def fit(
     settings : SamplerSettings, optional
         Sampler knobs.
     inputs : dict, optional
-        Provenance stored in the result's attributes (JSON).
+        What the evidence came from, stored in the result's ``inputs`` attribute (JSON).
+    provenance : dict, optional
+        Input files' SHA-256 and reader settings, stored in the ``provenance`` attribute
+        (JSON; see :func:`inertiafit.pipeline.study.study_provenance`).
     """
     model.check_feasible()
     run = sample(model, seed=seed, settings=settings)
-    return Posterior(build_tree(model, run, seed=seed, inputs=inputs))
+    return Posterior(build_tree(model, run, seed=seed, inputs=inputs, provenance=provenance))
 
 
 def fit_body(

@@ -4,6 +4,7 @@
 
     name = "Elbow attachment with 3 kg disk"
     gravity = 9.81                      # optional (m/s^2)
+    on_trial_error = "stop"             # optional; "skip" drops a bad trial, loudly
     [bodies.attachment]
     prior = "biodex-elbow-attachment"   # a prior name, a path, or an inline table
     [bodies.weight]
@@ -22,7 +23,7 @@
     kind = "fast"
     speed = 240                         # nominal deg/s; required for fast trials
     window = [0.10, 0.22]               # optional manual acceleration window (s)
-    torque_sign = -1                    # optional, +1 or -1
+    torque_sign = -1                    # optional, +1 or -1 ("motion": see apply_torque_sign)
 
 :func:`load_study` checks all of it and returns a :class:`Study`; every problem is one
 :class:`~inertiafit.errors.InputError` line naming the manifest and the key path, such as
@@ -31,6 +32,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 import tomllib
 from collections.abc import Mapping
@@ -49,23 +51,29 @@ from inertiafit.io.readers import (
     read_trial,
     reader_options,
 )
+from inertiafit.io.trial import apply_torque_sign
 from inertiafit.physics import GRAVITY
 
 __all__ = [
     "BODY_KEYS",
     "DEFAULT_KEYS",
     "KINDS",
+    "ON_TRIAL_ERROR",
     "TOP_KEYS",
     "TRIAL_KEYS",
     "BodySpec",
     "Study",
     "TrialSpec",
+    "file_sha256",
     "load_study",
     "read_trial_spec",
 ]
 
 KINDS = ("quasi-static", "fast")
-TOP_KEYS = ("name", "description", "gravity", "bodies", "defaults", "trials")
+#: What a trial that cannot be read or processed does to the study: stop it (the default) or be
+#: skipped, listed in ``trials.csv``, the warnings and ``report.html``.
+ON_TRIAL_ERROR = ("stop", "skip")
+TOP_KEYS = ("name", "description", "gravity", "bodies", "defaults", "trials", "on_trial_error")
 BODY_KEYS = ("prior", "ideal")
 DEFAULT_KEYS = ("format", "columns", "units", "calibration", "torque_sign", "options")
 TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *DEFAULT_KEYS)
@@ -113,9 +121,10 @@ class TrialSpec:
         Channel -> ``{"scale", "offset", "unit"}`` for the ``analog`` format.
     window : tuple of float or None
         Manual acceleration window ``(start, end)`` in seconds of the file's time, if given.
-    torque_sign : {1, -1}
+    torque_sign : {1, -1, "motion"}
         Multiplies the torque when the trial is read (a device that reports the opposite
-        sign).
+        sign); ``"motion"`` signs a torque written as a magnitude by the direction of motion
+        (fast trials; :func:`inertiafit.io.trial.apply_torque_sign`).
     condition : str
         The mounted body names joined by ``"+"``, in ``[bodies]`` order.
     options : dict
@@ -133,7 +142,7 @@ class TrialSpec:
     units: dict[str, str]
     calibration: dict[str, dict[str, Any]]
     window: tuple[float, float] | None
-    torque_sign: int
+    torque_sign: int | str
     condition: str
     options: dict[str, Any] = field(default_factory=dict)
     index: int = 0
@@ -141,6 +150,22 @@ class TrialSpec:
     def read(self) -> xr.Dataset:
         """Read this trial; see :func:`read_trial_spec`."""
         return read_trial_spec(self)
+
+    def reader_settings(self) -> dict[str, Any]:
+        """The settings this trial is read with, for provenance (plain JSON-able values).
+
+        ``format``, ``columns``, ``units``, ``calibration``, ``options`` (defaults merged in),
+        ``torque_sign`` and ``window`` (``None`` when the window is detected).
+        """
+        return {
+            "format": self.format,
+            "columns": dict(self.columns),
+            "units": dict(self.units),
+            "calibration": {k: dict(v) for k, v in self.calibration.items()},
+            "options": dict(self.options),
+            "torque_sign": self.torque_sign,
+            "window": list(self.window) if self.window is not None else None,
+        }
 
 
 @dataclass(frozen=True)
@@ -163,6 +188,9 @@ class Study:
         In manifest order.
     description : str
         Free text, may be empty.
+    on_trial_error : {"stop", "skip"}
+        What a trial that cannot be read or processed does: stop the study (default), or be
+        skipped and listed (see :func:`inertiafit.processing.study.process_study`).
     """
 
     name: str
@@ -172,6 +200,7 @@ class Study:
     bodies: dict[str, BodySpec]
     trials: list[TrialSpec]
     description: str = ""
+    on_trial_error: str = "stop"
 
     @property
     def conditions(self) -> dict[str, tuple[str, ...]]:
@@ -201,14 +230,16 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
     Returns
     -------
     xarray.Dataset
-        The Trial of :func:`inertiafit.io.read_trial`, torque multiplied by
-        ``spec.torque_sign``, with extra attrs ``condition``, ``kind``, ``torque_sign`` and,
-        when set, ``speed`` (deg/s) and ``window`` (s, two numbers).
+        The Trial of :func:`inertiafit.io.read_trial`, torque signed by
+        ``spec.torque_sign`` (:func:`inertiafit.io.trial.apply_torque_sign`), with extra attrs
+        ``condition``, ``kind``, ``torque_sign`` and, when set, ``speed`` (deg/s) and
+        ``window`` (s, two numbers).
 
     Raises
     ------
     InputError
-        Every problem with the file (see :func:`inertiafit.io.read_trial`).
+        Every problem with the file (see :func:`inertiafit.io.read_trial`), and a torque
+        sign that does not fit the torque (see :func:`inertiafit.io.trial.apply_torque_sign`).
     """
     trial = read_trial(
         spec.file,
@@ -218,15 +249,31 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
         calibration=spec.calibration or None,
         **spec.options,
     )
-    if spec.torque_sign != 1:
-        torque = trial["torque"]
-        trial["torque"] = torque.copy(data=spec.torque_sign * torque.values)
+    trial = apply_torque_sign(trial, spec.torque_sign, kind=spec.kind)
     trial.attrs.update(condition=spec.condition, kind=spec.kind, torque_sign=spec.torque_sign)
     if spec.speed is not None:
         trial.attrs["speed"] = spec.speed
     if spec.window is not None:
         trial.attrs["window"] = list(spec.window)
     return trial
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 of a file's bytes, as 64 hex digits (the provenance of an input file).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read (names it).
+    """
+    digest = hashlib.sha256()
+    try:
+        with Path(path).open("rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(block)
+    except OSError as err:
+        raise InputError(f"{path}: cannot read the file ({err.strerror or err})") from None
+    return digest.hexdigest()
 
 
 # --------------------------------------------------------------------------------------------
@@ -250,9 +297,15 @@ def _table(value: object, *, where: str, what: str) -> dict[str, Any]:
     return value
 
 
-def _torque_sign(value: object, *, where: str) -> int:
+def _torque_sign(value: object, *, where: str) -> int | str:
+    if value == "motion":
+        return "motion"
     if isinstance(value, bool) or value not in (1, -1):
-        raise _fail(where, f"must be 1 or -1, got {value!r}")
+        raise _fail(
+            where,
+            f'must be 1 or -1, got {value!r} (or "motion": a torque written as a magnitude, '
+            "signed by the direction of motion, for fast trials)",
+        )
     return int(value)
 
 
@@ -315,8 +368,9 @@ def load_study(path: str | Path) -> Study:
     InputError
         One line naming the manifest and the key path: a TOML syntax error (with its line),
         an unknown key, a missing trial file, an unknown body, a body without prior, a bad
-        ``kind``, ``speed``, ``window`` or ``torque_sign``, an unknown format, unit or
-        option, no trials, or a condition with fast trials but no quasi-static one.
+        ``kind``, ``speed``, ``window``, ``torque_sign`` or ``on_trial_error``, an unknown
+        format, unit or option, no trials, or a condition with fast trials but no
+        quasi-static one.
     """
     path = Path(path).expanduser().resolve()
     where = str(path)
@@ -342,6 +396,11 @@ def load_study(path: str | Path) -> Study:
     if not isinstance(description, str):
         raise _fail(f"{where}: description", f"expected a string, got {description!r}")
     gravity = _positive(doc.get("gravity", GRAVITY), where=f"{where}: gravity", unit="m/s^2")
+    on_trial_error = doc.get("on_trial_error", "stop")
+    if on_trial_error not in ON_TRIAL_ERROR:
+        raise _fail(
+            f"{where}: on_trial_error", f'expected "stop" or "skip", got {on_trial_error!r}'
+        )
 
     bodies = _bodies(doc, where=where)
     raw_defaults = _table(
@@ -395,6 +454,7 @@ def load_study(path: str | Path) -> Study:
         bodies=bodies,
         trials=trials,
         description=description,
+        on_trial_error=on_trial_error,
     )
 
 

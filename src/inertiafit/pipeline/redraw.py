@@ -23,11 +23,11 @@ from inertiafit.pipeline.study import paper_baselines
 from inertiafit.plotting.style import check_formats
 from inertiafit.posterior import Posterior, open_posterior
 from inertiafit.processing.speed import speed_effect
-from inertiafit.processing.study import TRACE_COLUMNS, TRIAL_COLUMNS
+from inertiafit.processing.study import TRACE_COLUMNS, TRIAL_COLUMNS, usable_trials
 from inertiafit.report.outputs import DATA_FILES, write_outputs
 from inertiafit.report.result import Result, make_result
 
-__all__ = ["load_result", "priors_from_posterior", "redraw"]
+__all__ = ["LATER_TRIAL_COLUMNS", "load_result", "priors_from_posterior", "redraw"]
 
 
 def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
@@ -51,14 +51,30 @@ def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
     }
 
 
-def _read_table(path: Path, columns: list[str], dtypes: Mapping[str, type]) -> pd.DataFrame:
-    """A table inertiafit wrote (``trials.csv``, ``traces.csv``), or an empty one."""
+#: Columns added to ``trials.csv`` later, with the value of a table written before them.
+LATER_TRIAL_COLUMNS = {"status": "ok"}
+
+
+def _read_table(
+    path: Path,
+    columns: list[str],
+    dtypes: Mapping[str, type],
+    later: Mapping[str, object] | None = None,
+) -> pd.DataFrame:
+    """A table inertiafit wrote (``trials.csv``, ``traces.csv``), or an empty one.
+
+    ``later`` columns may be missing (a file written before they existed): they are added
+    with the value given.
+    """
     if not path.is_file():
         return pd.DataFrame(columns=columns)
     try:
         table = pd.read_csv(path, dtype=dtypes)
     except (ValueError, pd.errors.ParserError) as exc:
         raise InputError(f"{path}: not a table written by inertiafit ({exc})") from None
+    for column, value in (later or {}).items():
+        if column not in table.columns:
+            table[column] = value
     missing = [c for c in columns if c not in table.columns]
     if missing:
         raise InputError(
@@ -85,9 +101,10 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
     conditions = {k: tuple(v) for k, v in inputs.get("conditions", {}).items()}
     if not conditions:  # one body fitted from numbers
         return _fit_result(post, priors[post.bodies[0]], inputs, gravity, hdi_prob)
-    text = {"flags": str, "file": str, "condition": str, "kind": str}
-    trials = _read_table(folder / "trials.csv", TRIAL_COLUMNS, text)
+    text = {"flags": str, "file": str, "condition": str, "kind": str, "status": str}
+    trials = _read_table(folder / "trials.csv", TRIAL_COLUMNS, text, LATER_TRIAL_COLUMNS)
     trials["flags"] = trials["flags"].fillna("").astype(str)
+    used = usable_trials(trials)
     traces = _read_table(folder / "traces.csv", TRACE_COLUMNS, {"condition": str})
     warnings = list(inputs.get("warnings", []))
     baselines = paper_baselines(trials, conditions, priors, gravity=gravity, notes=warnings)
@@ -98,7 +115,7 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
         gravity=gravity,
         hdi_prob=hdi_prob,
         trials=trials,
-        speed_effect=speed_effect(trials[trials["kind"] == "fast"]),
+        speed_effect=speed_effect(used[used["kind"] == "fast"]),
         traces=traces,
         conditions=conditions,
         ideals=inputs.get("ideals", {}),

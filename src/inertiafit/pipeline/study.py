@@ -24,14 +24,20 @@ from inertiafit.inference.fit import fit
 from inertiafit.inference.model import Model
 from inertiafit.inference.priors import Prior
 from inertiafit.io import Study, load_study
+from inertiafit.io.manifest import file_sha256
 from inertiafit.io.outputs import output_folder
 from inertiafit.processing.speed import speed_effect
-from inertiafit.processing.study import condition_gravity, process_study
+from inertiafit.processing.study import (
+    ProcessedStudy,
+    condition_gravity,
+    process_study,
+    usable_trials,
+)
 from inertiafit.report.outputs import write_outputs
 from inertiafit.report.result import Result, make_result
 from inertiafit.shapes import ideal_body
 
-__all__ = ["analyse_study", "paper_baselines", "run_study", "study_ideals"]
+__all__ = ["analyse_study", "paper_baselines", "run_study", "study_ideals", "study_provenance"]
 
 
 def study_ideals(study: Study) -> dict[str, dict[str, float]]:
@@ -40,6 +46,31 @@ def study_ideals(study: Study) -> dict[str, dict[str, float]]:
         name: ideal_body(body.ideal, f"{study.path}: bodies.{name}.ideal").as_dict(study.gravity)
         for name, body in study.bodies.items()
         if body.ideal
+    }
+
+
+def study_provenance(
+    study: Study, priors: Mapping[str, Prior], processed: ProcessedStudy
+) -> dict[str, Any]:
+    """What a study's posterior was computed from: every input file's SHA-256 and settings.
+
+    ``manifest`` (``path``, ``sha256``), ``on_trial_error``, ``trials`` (per trial: file,
+    path, sha256, condition, kind, status and the reader settings, see
+    :attr:`~inertiafit.processing.study.ProcessedStudy.provenance`) and ``priors`` (per body:
+    the prior file's ``path`` and ``sha256``, or ``"inline"`` for a table in the manifest).
+    """
+    return {
+        "manifest": {"path": str(study.path), "sha256": file_sha256(study.path)},
+        "on_trial_error": study.on_trial_error,
+        "trials": processed.provenance,
+        "priors": {
+            name: (
+                {"path": str(prior.path), "sha256": file_sha256(prior.path)}
+                if prior.path is not None
+                else {"path": "inline"}
+            )
+            for name, prior in priors.items()
+        },
     }
 
 
@@ -56,8 +87,10 @@ def paper_baselines(
     A body measured alone gets the multi-start fit of its condition's mean ``I`` and ``M_g``;
     a body added to another condition gets the fit of the differences of the condition means
     (Son et al., section 3.2: ``I_w = mean(I_b) - mean(I_a)``). Bodies measured neither way
-    have no baseline; a baseline that cannot be computed is a line in ``notes``.
+    have no baseline; a baseline that cannot be computed is a line in ``notes``. Skipped trials
+    (``status`` ``"skipped"``) are left out.
     """
+    trials = usable_trials(trials)
     grav = condition_gravity(trials)
     means = {}
     for label, bodies in conditions.items():
@@ -114,6 +147,9 @@ def analyse_study(
     Returns
     -------
     Result
+        Its ``trials`` hold every trial of the manifest (a skipped one with ``status``
+        ``"skipped"``); the evidence, the speed effect and the baselines use the others.
+        The posterior's ``provenance`` attribute holds :func:`study_provenance`.
     """
     check_probability(hdi_prob, "hdi_prob")
     if not isinstance(study, Study):
@@ -122,22 +158,22 @@ def analyse_study(
     priors = study_priors(study)
     ideals = study_ideals(study)
     processed = process_study(study, echo=say)
+    provenance = study_provenance(study, priors, processed)
     model = Model(priors, condition_evidence(processed), gravity=study.gravity)
     say(f"sampling the joint posterior of {len(priors)} bodies")
+    trials = processed.all_trials  # trials.csv: skipped trials listed too
+    used = processed.trials
     inputs: dict[str, Any] = {
         "manifest": str(study.path),
         "name": study.name,
         "conditions": {k: list(v) for k, v in study.conditions.items()},
         "ideals": ideals,
         "warnings": processed.warnings,
-        "trials": processed.trials.to_dict(orient="list"),
+        "trials": trials.to_dict(orient="list"),
     }
-    post = fit(model, seed=seed, inputs=inputs)
+    post = fit(model, seed=seed, inputs=inputs, provenance=provenance)
     notes = list(processed.warnings)
-    trials = processed.trials
-    baselines = paper_baselines(
-        trials, study.conditions, priors, gravity=study.gravity, notes=notes
-    )
+    baselines = paper_baselines(used, study.conditions, priors, gravity=study.gravity, notes=notes)
     return make_result(
         name=study.name,
         posterior=post,
@@ -145,7 +181,7 @@ def analyse_study(
         gravity=study.gravity,
         hdi_prob=hdi_prob,
         trials=trials,
-        speed_effect=speed_effect(trials[trials["kind"] == "fast"]),
+        speed_effect=speed_effect(used[used["kind"] == "fast"]),
         traces=processed.traces,
         conditions=study.conditions,
         ideals=ideals,

@@ -4,22 +4,29 @@
 model of each condition from its quasi-static trials and estimates the inertia of every fast
 trial. The per-trial values it returns (:class:`ProcessedStudy`) are what
 :mod:`inertiafit.inference.evidence` turns into the evidence of each condition.
+
+A trial that cannot be read or processed stops the study, or, with the manifest's
+``on_trial_error = "skip"``, is skipped: it keeps a row (``status`` ``"skipped"``, the reason
+in ``flags``) and a line in the warnings, and nothing of it reaches the evidence.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import pandas as pd
+import xarray as xr
 
 from inertiafit.errors import InputError
 from inertiafit.io import Study, TrialSpec, load_study
+from inertiafit.io.manifest import file_sha256
 from inertiafit.processing.gravity import GravityFit, fit_gravity
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.stats import inverse_variance_mean
@@ -33,6 +40,7 @@ __all__ = [
     "combine_gravity",
     "condition_gravity",
     "process_study",
+    "usable_trials",
 ]
 
 #: Columns of ``trials.csv``, a row per trial (SI units; ``speed`` in deg/s).
@@ -53,7 +61,10 @@ TRIAL_COLUMNS = [
     "inertia_se",
     "gravity_moment_se",
     "offset",
+    "status",
 ]
+#: ``status`` of a trial whose values were used, and of one skipped (``on_trial_error``).
+STATUS_OK, STATUS_SKIPPED = "ok", "skipped"
 #: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures.
 TRACE_COLUMNS = [
     "condition",
@@ -69,6 +80,7 @@ TRACE_COLUMNS = [
 RATE_TOLERANCE = 0.01
 #: Phase difference between conditions (rad) beyond which bodies are not mounted in line.
 PHASE_TOLERANCE = 0.05
+_T = TypeVar("_T")
 #: Points kept of each fast trial's moving part in the figure traces.
 TRACE_POINTS = 600
 
@@ -82,14 +94,22 @@ class ProcessedStudy:
     study : Study
         The manifest.
     trials : pandas.DataFrame
-        A row per trial, columns :data:`TRIAL_COLUMNS` (SI units; ``speed`` in deg/s).
+        A row per trial used, in manifest order, columns :data:`TRIAL_COLUMNS` (SI units;
+        ``speed`` in deg/s; ``status`` ``"ok"``): what the evidence is made of.
     gravity : dict of str to GravityFit
         The gravity model of each condition (combined over its quasi-static trials).
     traces : pandas.DataFrame
         Filtered velocity and acceleration of the fast trials' moving parts, columns
         :data:`TRACE_COLUMNS` (every move plotted as positive), for figures.
     warnings : list of str
-        Flags worth a look: one line each, naming the file.
+        Flags worth a look and skipped trials: one line each, naming the file.
+    skipped : pandas.DataFrame
+        A row per skipped trial (``on_trial_error = "skip"``), columns :data:`TRIAL_COLUMNS`:
+        ``status`` ``"skipped"``, the reason in ``flags``, no values.
+    provenance : list of dict
+        Per trial in manifest order: ``file`` (relative to the manifest), ``path``,
+        ``sha256`` (of the file as read; ``None`` if it could not be read), ``condition``,
+        ``kind``, ``status`` and ``reader`` (:meth:`~inertiafit.io.TrialSpec.reader_settings`).
     """
 
     study: Study
@@ -97,6 +117,30 @@ class ProcessedStudy:
     gravity: dict[str, GravityFit]
     traces: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=TRACE_COLUMNS))
     warnings: list[str] = field(default_factory=list)
+    skipped: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=TRIAL_COLUMNS))
+    provenance: list[dict[str, Any]] = field(default_factory=list)
+
+    @property
+    def all_trials(self) -> pd.DataFrame:
+        """Every trial of the manifest, used and skipped, in manifest order (``trials.csv``)."""
+        if self.skipped.empty:
+            return self.trials
+        order = {_relative(t.file, self.study.base_dir): t.index for t in self.study.trials}
+        both = pd.concat([self.trials, self.skipped], ignore_index=True)
+        return both.sort_values("file", key=lambda f: f.map(order), kind="stable").reset_index(
+            drop=True
+        )
+
+
+def usable_trials(trials: pd.DataFrame) -> pd.DataFrame:
+    """The rows of a trial table whose values were used (``status`` ``"ok"``).
+
+    A table without a ``status`` column (a ``trials.csv`` written before it existed) is
+    used whole.
+    """
+    if "status" not in trials.columns:
+        return trials
+    return trials[trials["status"].fillna(STATUS_OK) == STATUS_OK]
 
 
 def _relative(path: Path, base: Path) -> str:
@@ -190,32 +234,44 @@ def process_study(
     ------
     InputError
         On any unreadable trial, unusable window, negative inertia, or sampling rates that
-        differ between trials; the message names the file.
+        differ between trials; the message names the file. With the manifest's
+        ``on_trial_error = "skip"`` such a trial is skipped instead (a row in
+        :attr:`ProcessedStudy.skipped`, a line in the warnings), and the error is for a
+        condition left without a usable quasi-static trial (no gravity model) or, when it
+        has fast trials, without a usable fast one; it names the condition and the skipped
+        files.
+
+    Notes
+    -----
+    A reader's own flags (``trial.attrs["flags"]``, e.g. a velocity sign it corrected) join
+    the trial's ``flags`` and the warnings. Every trial file is hashed (SHA-256) as it is
+    read, for :attr:`ProcessedStudy.provenance`.
     """
     if not isinstance(study, Study):
         study = load_study(study)
     say = echo or (lambda _msg: None)
+    run = _Run(study)
     say(f"reading {len(study.trials)} trials")
-    data = [(spec, study.read(spec)) for spec in study.trials]
-    rates = [(spec, float(ds.attrs["sampling_rate"])) for spec, ds in data]
-    ref_spec, ref_rate = rates[0]
-    for spec, rate in rates[1:]:
-        if abs(rate - ref_rate) > RATE_TOLERANCE * ref_rate:
-            raise InputError(
-                f"{spec.file}: sampling rate {rate:g} Hz differs from {ref_rate:g} Hz of "
-                f"{ref_spec.file.name}; resample so every trial of a study has one rate"
-            )
+    data = []
+    for spec in study.trials:
+        ds = run.attempt(spec, functools.partial(_read, spec, run))
+        if ds is not None:
+            data.append((spec, ds))
+    data = _check_rates(data, run)
     rows: dict[int, dict] = {}  # by manifest order
-    notes: list[str] = []
+    notes = run.notes
     say("fitting the gravity model of each condition (quasi-static trials)")
     qs_fits: dict[str, list[GravityFit]] = {}
     for spec, ds in data:
         if spec.kind != "quasi-static":
             continue
-        fit = fit_gravity(ds)
+        fit = run.attempt(spec, functools.partial(fit_gravity, ds))
+        if fit is None:
+            continue
         notes.extend(f"{fit.source}: {flag}" for flag in fit.flags)
         qs_fits.setdefault(spec.condition, []).append(fit)
-        rows[spec.index] = _row(study, spec, gravity=fit)
+        rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
+    run.check_left(qs_fits, "quasi-static")
     gravity = {
         cond: combine_gravity(fits, f"{study.path}: condition {cond}")
         for cond, fits in qs_fits.items()
@@ -224,23 +280,32 @@ def process_study(
     say("estimating the inertia of each fast trial")
     traces: list[pd.DataFrame] = []
     count: dict[str, int] = {}
+    used_fast: dict[str, list[InertiaEstimate]] = {}
     for spec, ds in data:
         if spec.kind != "fast":
             continue
-        est = estimate_inertia(
-            ds,
-            gravity[spec.condition],
-            window=spec.window,
-            speed_deg_s=spec.speed,
-            cutoff=cutoff,
-            order=order,
+        est = run.attempt(
+            spec,
+            functools.partial(
+                estimate_inertia,
+                ds,
+                gravity[spec.condition],
+                window=spec.window,
+                speed_deg_s=spec.speed,
+                cutoff=cutoff,
+                order=order,
+            ),
         )
+        if est is None:
+            continue
         notes.extend(f"{est.source}: {flag}" for flag in est.flags)
-        rows[spec.index] = _row(study, spec, inertia=est)
+        used_fast.setdefault(spec.condition, []).append(est)
+        rows[spec.index] = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
         number = count[spec.condition] = count.get(spec.condition, 0) + 1
         traces.append(
             _trace(spec.condition, number, ds["time"].values, est, float(spec.speed or 0.0))
         )
+    run.check_left(used_fast, "fast")
     trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS)
     return ProcessedStudy(
         study=study,
@@ -249,8 +314,119 @@ def process_study(
         traces=pd.concat(traces, ignore_index=True)
         if traces
         else pd.DataFrame(columns=TRACE_COLUMNS),
-        warnings=notes,
+        warnings=list(dict.fromkeys(notes)),  # a reader flag a later step repeats: once
+        skipped=pd.DataFrame([run.skipped[i] for i in sorted(run.skipped)], columns=TRIAL_COLUMNS),
+        provenance=[run.provenance[t.index] for t in study.trials],
     )
+
+
+class _Run:
+    """The bookkeeping of one :func:`process_study` call: skips, reader flags, provenance."""
+
+    def __init__(self, study: Study) -> None:
+        self.study = study
+        self.skip = study.on_trial_error == "skip"
+        self.notes: list[str] = []
+        self.skipped: dict[int, dict] = {}  # rows of skipped trials, by manifest index
+        self.reasons: dict[int, str] = {}
+        self.flags: dict[int, tuple[str, ...]] = {}  # reader flags, by manifest index
+        self.provenance: dict[int, dict[str, Any]] = {
+            t.index: {
+                "file": _relative(t.file, study.base_dir),
+                "path": str(t.file),
+                "sha256": None,
+                "condition": t.condition,
+                "kind": t.kind,
+                "status": STATUS_OK,
+                "reader": t.reader_settings(),
+            }
+            for t in study.trials
+        }
+
+    def attempt(self, spec: TrialSpec, step: Callable[[], _T]) -> _T | None:
+        """``step()``, or ``None`` when it raised InputError and bad trials are skipped."""
+        try:
+            return step()
+        except InputError as exc:
+            if not self.skip:
+                raise
+            self.drop(spec, str(exc))
+            return None
+
+    def drop(self, spec: TrialSpec, message: str) -> None:
+        """Skip a trial: its row (no values, the reason in ``flags``) and a warning line."""
+        reason = message.removeprefix(f"{spec.file}: ")
+        self.reasons[spec.index] = reason
+        self.notes.append(f"{spec.file}: trial skipped: {reason}")
+        row = _row(self.study, spec, reader=self.reader_flags(spec))
+        row.update(
+            status=STATUS_SKIPPED,
+            flags="; ".join(filter(None, [f"skipped: {reason}", row["flags"]])),
+        )
+        self.skipped[spec.index] = row
+        self.provenance[spec.index]["status"] = STATUS_SKIPPED
+
+    def reader_flags(self, spec: TrialSpec) -> tuple[str, ...]:
+        return self.flags.get(spec.index, ())
+
+    def check_left(self, used: dict[str, list], kind: str) -> None:
+        """Every condition with trials of ``kind`` in the manifest keeps at least one."""
+        for condition in self.study.conditions:
+            listed = [t for t in self.study.trials if t.condition == condition and t.kind == kind]
+            if not listed or used.get(condition):
+                continue
+            gone = [t for t in listed if t.index in self.skipped]
+            named = ", ".join(
+                f"{_relative(t.file, self.study.base_dir)} ({self.reasons[t.index]})"
+                for t in gone[:3]
+            ) + (", ..." if len(gone) > 3 else "")
+            need = (
+                "its fast trials need the gravity model it gives"
+                if kind == "quasi-static"
+                else "its inertia has no evidence"
+            )
+            raise InputError(
+                f"{self.study.path}: condition '{condition}': no usable {kind} trial; "
+                f"skipped: {named}; {need}"
+            )
+
+
+def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
+    """Hash and read one trial; its reader flags go to the warnings."""
+    run.provenance[spec.index]["sha256"] = file_sha256(spec.file)
+    ds = spec.read()
+    flags = tuple(str(f) for f in (ds.attrs.get("flags", ()) or ()))
+    if isinstance(ds.attrs.get("flags"), str):  # one flag stored as a string
+        flags = (ds.attrs["flags"],)
+    run.flags[spec.index] = flags
+    run.notes.extend(f"{spec.file}: {flag}" for flag in flags)
+    return ds
+
+
+def _check_rates(data: list, run: _Run) -> list:
+    """One sampling rate per study; the trials that differ stop the study or are skipped.
+
+    The reference is the first trial's rate, or, when bad trials are skipped, the median
+    trial's (so that one odd first trial does not take every other with it).
+    """
+    if not data:
+        return data
+    rates = [float(ds.attrs["sampling_rate"]) for _, ds in data]
+    ref = int(np.argsort(rates, kind="stable")[(len(rates) - 1) // 2]) if run.skip else 0
+    ref_spec, ref_rate = data[ref][0], rates[ref]
+    kept = []
+    for (spec, ds), rate in zip(data, rates, strict=True):
+        if abs(rate - ref_rate) > RATE_TOLERANCE * ref_rate:
+            message = (
+                f"{spec.file}: sampling rate {rate:g} Hz differs from {ref_rate:g} Hz of "
+                f"{ref_spec.file.name}; resample so every trial of a study has one rate"
+            )
+            if not run.skip:
+                raise InputError(message)
+            run.drop(spec, message)
+            continue
+        kept.append((spec, ds))
+    return kept
 
 
 def _row(
@@ -259,6 +435,7 @@ def _row(
     *,
     gravity: GravityFit | None = None,
     inertia: InertiaEstimate | None = None,
+    reader: tuple[str, ...] = (),
 ) -> dict:
     nan = math.nan
     row: dict[str, Any] = dict.fromkeys(TRIAL_COLUMNS, nan)
@@ -267,6 +444,8 @@ def _row(
         condition=spec.condition,
         kind=spec.kind,
         speed=spec.speed if spec.speed is not None else nan,
+        flags="; ".join(reader),
+        status=STATUS_OK,
     )
     if gravity is not None:
         row.update(
@@ -276,7 +455,7 @@ def _row(
             offset=gravity.offset,
             residual_rms=gravity.residual_rms,
             n_window=gravity.n,
-            flags="; ".join(gravity.flags),
+            flags="; ".join(dict.fromkeys([*reader, *gravity.flags])),
         )
     if inertia is not None:
         row.update(
@@ -287,7 +466,7 @@ def _row(
             window_end=inertia.window_end,
             n_window=inertia.n_window,
             residual_rms=inertia.residual_rms,
-            flags="; ".join(inertia.flags),
+            flags="; ".join(dict.fromkeys([*reader, *inertia.flags])),
         )
     return row
 

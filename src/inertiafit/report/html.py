@@ -2,7 +2,9 @@
 
 :func:`write_report` writes any page of sections; :func:`study_report` lays out the page of a
 :class:`~inertiafit.report.result.Result` (posterior, comparison, corner plots, identification
-curves, trials, speed effect, diagnostics, provenance).
+curves, trials, speed effect, diagnostics, provenance): skipped trials, if any, come first,
+and "Inputs and provenance" lists every input file's SHA-256 and reader settings as stored in
+``posterior.nc``.
 """
 
 from __future__ import annotations
@@ -10,16 +12,26 @@ from __future__ import annotations
 import base64
 import html
 import io
+import json
 import math
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
 from inertiafit.report.result import Result
 from inertiafit.report.tables import comparison_display, speed_effect_display, summary_display
 
-__all__ = ["figure_png", "figure_png_base64", "study_report", "table_html", "write_report"]
+__all__ = [
+    "figure_png",
+    "figure_png_base64",
+    "provenance_table",
+    "skipped_trials",
+    "study_report",
+    "table_html",
+    "write_report",
+]
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
@@ -61,12 +73,100 @@ def table_html(frame: pd.DataFrame, digits: int = 4) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
 
 
+def _item_html(entry, heading: str) -> str:
+    """One item of a section: a table, a paragraph, or a figure with its caption."""
+    caption, item = entry if isinstance(entry, tuple) else ("", entry)
+    if isinstance(item, pd.DataFrame):
+        return table_html(item)
+    if isinstance(item, str):
+        if item.startswith("pre:"):
+            return f"<pre>{html.escape(item[4:])}</pre>"
+        if item.startswith("warn:"):
+            return f"<p class='warn'>{html.escape(item[5:])}</p>"
+        return f"<p class='note'>{html.escape(item)}</p>"
+    data = (
+        base64.b64encode(item).decode("ascii")
+        if isinstance(item, bytes)
+        else figure_png_base64(item)
+    )
+    return (
+        f"<figure><img alt='{html.escape(caption or heading)}' "
+        f"src='data:image/png;base64,{data}'>"
+        + (f"<figcaption class='note'>{html.escape(caption)}</figcaption>" if caption else "")
+        + "</figure>"
+    )
+
+
+def skipped_trials(trials: pd.DataFrame) -> pd.DataFrame:
+    """The skipped rows of a trial table: ``file, condition, kind, speed, reason``.
+
+    Empty for a table without a ``status`` column (written before trials could be skipped).
+    """
+    columns = ["file", "condition", "kind", "speed", "reason"]
+    if "status" not in trials.columns:
+        return pd.DataFrame(columns=columns)
+    rows = trials[trials["status"] == "skipped"]
+    reason = rows["flags"].fillna("").astype(str).str.removeprefix("skipped: ")
+    return rows.assign(reason=reason)[columns].reset_index(drop=True)
+
+
+#: Order of the reader settings in the provenance table (others follow alphabetically).
+_SETTINGS_ORDER = ("format", "columns", "units", "calibration", "options", "torque_sign", "window")
+
+
+def _settings_text(settings: Mapping[str, object]) -> str:
+    """Reader settings in one line, the empty ones left out."""
+    rank = {key: i for i, key in enumerate(_SETTINGS_ORDER)}
+    keys = sorted(settings, key=lambda k: (rank.get(k, len(rank)), k))
+    return "; ".join(
+        f"{key} = {json.dumps(settings[key], sort_keys=True)}"
+        for key in keys
+        if settings[key] not in (None, {}, [])
+    )
+
+
+def provenance_table(provenance: Mapping[str, Any]) -> pd.DataFrame:
+    """The input files of a study: ``input, file, sha256, status, reader settings``.
+
+    From the ``provenance`` attribute of a study's posterior (see
+    :func:`inertiafit.pipeline.study.study_provenance`): the manifest, every trial file and
+    every prior file; empty when nothing was recorded.
+    """
+    rows = []
+    manifest = provenance.get("manifest")
+    if isinstance(manifest, Mapping):
+        rows.append(("manifest", manifest.get("path", ""), manifest.get("sha256", ""), "", ""))
+    for trial in provenance.get("trials", []) or []:
+        rows.append(
+            (
+                f"{trial.get('kind', '')} trial, {trial.get('condition', '')}",
+                trial.get("file", ""),
+                trial.get("sha256") or "(unreadable)",
+                trial.get("status", ""),
+                _settings_text(trial.get("reader", {})),
+            )
+        )
+    for body, prior in (provenance.get("priors", {}) or {}).items():
+        inline = prior.get("path") == "inline"
+        rows.append(
+            (
+                f"prior of {body}",
+                "inline table in the manifest" if inline else prior.get("path", ""),
+                "" if inline else prior.get("sha256", ""),
+                "",
+                "",
+            )
+        )
+    return pd.DataFrame(rows, columns=["input", "file", "sha256", "status", "reader settings"])
+
+
 def write_report(
     path: str | Path,
     *,
     title: str,
     sections: list[tuple[str, list]],
     notes: Mapping[str, object] | None = None,
+    appendix: list | None = None,
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -82,6 +182,8 @@ def write_report(
         preformatted text, ``warn:`` for a warning).
     notes : mapping, optional
         Key-value pairs listed at the end (inputs, versions, seed).
+    appendix : list, optional
+        Items (as in a section) shown after ``notes`` under "Inputs and provenance".
     """
     parts = [
         "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
@@ -90,41 +192,18 @@ def write_report(
     ]
     for heading, items in sections:
         parts.append(f"<h2>{html.escape(heading)}</h2>")
-        for entry in items:
-            caption, item = entry if isinstance(entry, tuple) else ("", entry)
-            if isinstance(item, pd.DataFrame):
-                parts.append(table_html(item))
-            elif isinstance(item, str):
-                if item.startswith("pre:"):
-                    parts.append(f"<pre>{html.escape(item[4:])}</pre>")
-                elif item.startswith("warn:"):
-                    parts.append(f"<p class='warn'>{html.escape(item[5:])}</p>")
-                else:
-                    parts.append(f"<p class='note'>{html.escape(item)}</p>")
-            else:
-                data = (
-                    base64.b64encode(item).decode("ascii")
-                    if isinstance(item, bytes)
-                    else figure_png_base64(item)
-                )
-                parts.append(
-                    f"<figure><img alt='{html.escape(caption or heading)}' "
-                    f"src='data:image/png;base64,{data}'>"
-                    + (
-                        f"<figcaption class='note'>{html.escape(caption)}</figcaption>"
-                        if caption
-                        else ""
-                    )
-                    + "</figure>"
-                )
+        parts.extend(_item_html(entry, heading) for entry in items)
+    if notes or appendix:
+        parts.append("<h2>Inputs and provenance</h2>")
     if notes:
-        parts.append("<h2>Inputs and provenance</h2><table><tbody>")
+        parts.append("<table><tbody>")
         for k, v in notes.items():
             parts.append(
                 f"<tr><td>{html.escape(k)}</td><td style='text-align:left'>"
                 f"{html.escape(str(v))}</td></tr>"
             )
         parts.append("</tbody></table>")
+    parts.extend(_item_html(entry, "Inputs and provenance") for entry in appendix or [])
     # Records, once the page has loaded, how many embedded figures the browser decoded; a
     # headless-browser test reads it back (nothing is fetched: the page stays offline).
     parts.append(
@@ -155,7 +234,24 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
     )
     summary = post.summary(hdi_prob)
     fig = lambda stem, caption: [(caption, figures[stem])] if stem in figures else []
-    sections: list[tuple[str, list]] = [
+    skipped = skipped_trials(result.trials)
+    sections: list[tuple[str, list]] = []
+    if len(skipped):
+        used = len(result.trials) - len(skipped)
+        sections.append(
+            (
+                "Skipped trials",
+                [
+                    (
+                        f"warn:{len(skipped)} of {len(result.trials)} trials could not be read "
+                        'or processed and were skipped (on_trial_error = "skip"); the posterior, '
+                        f"the speed effect and the paper's estimator use the other {used}."
+                    ),
+                    skipped,
+                ],
+            )
+        )
+    sections += [
         (
             "Posterior",
             [
@@ -269,4 +365,27 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
         "versions": a.get("versions"),
         "sampled coordinates": a.get("sampled_coordinates"),
     }
-    return write_report(path, title=f"inertiafit: {result.name}", sections=sections, notes=notes)
+    try:
+        provenance = json.loads(a.get("provenance") or "{}")
+    except (TypeError, ValueError):
+        provenance = {}
+    files = provenance_table(provenance if isinstance(provenance, dict) else {})
+    appendix: list = []
+    if len(files):
+        notes["on trial error"] = provenance.get("on_trial_error", "stop")
+        appendix = [
+            (
+                "Every input file with its SHA-256 (of its bytes when the posterior was sampled) "
+                "and the reader settings it was read with."
+            ),
+            files,
+        ]
+    elif not result.from_numbers:
+        notes["input files"] = "not recorded (posterior.nc written before inertiafit kept them)"
+    return write_report(
+        path,
+        title=f"inertiafit: {result.name}",
+        sections=sections,
+        notes=notes,
+        appendix=appendix,
+    )

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from inertiafit.io.outputs import write_csv
+from inertiafit.processing.study import usable_trials
 from inertiafit.report import plots
 from inertiafit.report.html import figure_png, study_report
 from inertiafit.report.result import Result, traces_by_condition
@@ -57,7 +58,8 @@ def figure_makers(result: Result) -> dict[str, Callable[[], Any]]:
         makers[f"fast-trials-{cond}"] = functools.partial(
             plots.plot_fast_trials, traces, title=cond
         )
-    fast = result.trials[result.trials["kind"] == "fast"]
+    used = usable_trials(result.trials)  # a skipped trial has no inertia to draw
+    fast = used[used["kind"] == "fast"]
     if len(fast):
         makers["inertia-by-speed"] = functools.partial(plots.plot_inertia_by_speed, fast)
     return makers
