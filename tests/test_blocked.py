@@ -1,10 +1,15 @@
 """The blocked sampler for an attachment with K segments: which models it takes, and its draws
 against the exact star-model quadrature (and the joint sampler against the same yardstick)."""
 
+import math
+import warnings
+
+import emcee
 import numpy as np
 import pytest
 
-from inertiafit.errors import InputError
+from inertiafit.errors import ConvergenceWarning, InputError
+from inertiafit.inference import moves
 from inertiafit.inference.blocked import BlockedGibbs, star_structure
 from inertiafit.inference.fit import fit
 from inertiafit.inference.model import Condition, Model
@@ -12,7 +17,7 @@ from inertiafit.inference.moves import laplace_fit, proposal_df
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.inference.reference import reference_posterior, star_reference
-from inertiafit.inference.sampler import SamplerSettings, resolve_moves
+from inertiafit.inference.sampler import SamplerSettings, resolve_moves, sample
 from inertiafit.physics import inertia
 
 G = 9.81
@@ -223,3 +228,169 @@ def test_a_chain_in_a_far_tail_comes_back():
     # negative control: with only the two conditional updates, the attachment and the leaf
     # totals hold each other in place (each segment's box ties its total to the attachment)
     assert np.sum(far_tail_chains(model, joint_step=False) > 6) >= 2
+
+
+# ----------------------------------------------- a small segment on a heavy, noisy attachment (issue 12)
+
+
+def trials(mean, se, n=10):
+    """A mean of ``n`` trials reported with its SE: the Student-t of those trials."""
+    return Observation.from_mean_sd(mean, se * math.sqrt(n), n)
+
+
+def two_segments(inertias, gravity_moments):
+    """An attachment alone and with each of two segments; boxes +-50 % around (m, x, rho)."""
+    priors = {
+        "attachment": Prior.box(
+            "attachment", mass=2.9, com_distance=0.225, radius_of_gyration=0.13
+        ),
+        "segment0": Prior.box("segment0", mass=1.6, com_distance=0.16, radius_of_gyration=0.08),
+        "segment1": Prior.box("segment1", mass=1.6, com_distance=0.16, radius_of_gyration=0.08),
+    }
+    names = [("attachment",), ("attachment", "segment0"), ("attachment", "segment1")]
+    conditions = [
+        Condition(n, trials(*i), Observation.from_mean_se(*g))
+        for n, i, g in zip(names, inertias, gravity_moments, strict=True)
+    ]
+    return Model(priors, conditions, gravity=G)
+
+
+def small_segment_model():
+    """Issue 12's case, which stopped with ``cannot convert float NaN to integer``: segment 1's
+    total is measured tightly (SE 0.0019) and its box needs I >= ~0.019 kg m^2, so the
+    attachment's inertia is bounded near 0.29, while measured alone it reads 0.300 +- 0.010."""
+    return two_segments(
+        [(0.30011, 0.0101), (0.30674, 0.00789), (0.30873, 0.00191)],
+        [(8.7542, 0.035), (10.683, 0.0425), (10.602, 0.0424)],
+    )
+
+
+def kink_model():
+    """A scan case whose attachment has its posterior mode on a kink of its prior density;
+    20 000 steps left it unconverged (tau ~1500) before its Laplace fit was re-measured."""
+    return two_segments(
+        [(0.12790, 0.0029141), (0.16111, 0.0031022), (0.17057, 0.00070774)],
+        [(3.1745, 0.0096240), (5.5153, 0.021447), (5.6826, 0.039646)],
+    )
+
+
+def blocked_sampler(model, seed=0):
+    star = star_structure(model)
+    shared = BlockedGibbs.shared_submodel(model, star)
+    mode, cov = laplace_fit(shared, np.random.default_rng(seed))
+    return BlockedGibbs(model, star, mode, cov, proposal_df(shared))
+
+
+def test_every_chain_starts_inside_the_support():
+    model = small_segment_model()
+    gibbs = blocked_sampler(model)
+    for seed in range(3):
+        random = np.random.default_rng(seed)
+        state = gibbs.start(32, random)
+        assert gibbs.in_support(*state).all()
+        assert np.isfinite(model.log_prob(gibbs.joint_coordinates(*state))).all()
+    # negative control: shared draws from the attachment's own evidence with leaves redrawn
+    # for them (the start before the fix) leave chains with no room for segment 1
+    _, ta, tb = state
+    s_new = gibbs.proposal.draw(32, random)
+    ta, tb = gibbs.fit_leaves(s_new, ta, tb, random)
+    outside = ~gibbs.in_support(s_new, ta, tb)
+    assert outside.sum() >= 5
+    assert np.isnan(gibbs.joint_coordinates(s_new, ta, tb)[outside]).any()
+
+
+def test_the_start_falls_back_on_the_whole_models_laplace_fit():
+    # The attachment alone says I = 0.3000 +- 0.0006; with segment 1 (whose box needs at least
+    # ~0.019) the total says 0.3070 +- 0.0002: the attachment lies 6 SD out, where its own
+    # proposal hardly ever goes.
+    model = two_segments(
+        [(0.30011, 0.0006), (0.33, 0.005), (0.30711, 0.0002)],
+        [(8.7542, 0.035), (10.683, 0.0425), (10.683, 0.0425)],
+    )
+    gibbs = blocked_sampler(model)
+    fallback = gibbs._laplace_draws
+    calls = []
+    gibbs._laplace_draws = lambda n, random: calls.append(n) or fallback(n, random)
+    state = gibbs.start(32, np.random.default_rng(1))
+    assert calls
+    assert calls[0] > 0
+    assert gibbs.in_support(*state).all()
+
+
+def test_laplace_fit_measures_the_curvature_across_a_kink():
+    model = kink_model()
+    shared = BlockedGibbs.shared_submodel(model, star_structure(model))
+    # the shared posterior's SD of log I, on a grid (0.0242)
+    mode, cov = laplace_fit(shared, np.random.default_rng(0))
+    la, lb = np.meshgrid(
+        np.linspace(mode[0] - 0.05, mode[0] + 0.05, 201),
+        np.linspace(mode[1] - 0.2, mode[1] + 0.2, 401),
+        indexing="ij",
+    )
+    w = np.exp(shared.log_prob(np.stack([la.ravel(), lb.ravel()], -1)))
+    sd_grid = math.sqrt(np.cov(lb.ravel(), aweights=w))
+    assert 0.6 < math.sqrt(cov[1, 1]) / sd_grid < 1.2
+    # smooth posterior: the curvature over one SD agrees, the fit is exactly the old one
+    smooth = BlockedGibbs.shared_submodel(segments_model(3), star_structure(segments_model(3)))
+    kept = laplace_fit(smooth, np.random.default_rng(0))[1]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(moves, "KINK_RATIO", math.inf)  # no re-measuring
+        np.testing.assert_array_equal(laplace_fit(smooth, np.random.default_rng(0))[1], kept)
+        # negative control: the curvature at the kink itself is 8 times too narrow
+        narrow = laplace_fit(shared, np.random.default_rng(0))[1]
+    assert math.sqrt(narrow[1, 1]) / sd_grid < 0.2
+
+
+@pytest.fixture(scope="module")
+def small_segment_reference():
+    return star_reference(small_segment_model(), n_angle=24)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_small_segment_on_a_heavy_noisy_attachment(seed, small_segment_reference):
+    post = fit(small_segment_model(), seed=seed, settings=SamplerSettings(progress=False))
+    assert post.attrs["moves"] == "blocked"
+    assert post.converged
+    worst_mean, worst_sd = agreement(post, small_segment_reference)
+    assert worst_mean < 0.1
+    assert worst_sd < 0.10
+
+
+@pytest.mark.slow
+def test_a_mode_on_a_kink_of_the_prior():
+    model = kink_model()
+    post = fit(model, seed=43, settings=SamplerSettings(progress=False))
+    assert post.converged
+    assert post.attrs["n_steps"] <= 500
+    worst_mean, worst_sd = agreement(post, star_reference(model, n_angle=24))
+    assert worst_mean < 0.1
+    assert worst_sd < 0.10
+
+
+@pytest.mark.parametrize("moves_", ["blocked", "independent"])
+def test_a_tau_that_cannot_be_estimated_never_raises(moves_, monkeypatch):
+    # emcee's tau is nan for a coordinate that never moved; the sampler must carry on to
+    # max_steps, dropping the first half, and warn (it used to raise on math.ceil(nan)).
+    model = segments_model(1)
+    settings = SamplerSettings(progress=False, moves=moves_, chunk=50, max_steps=100)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        honest = sample(model, seed=1, settings=settings)
+    real = emcee.autocorr.integrated_time
+
+    def nan_tau(chain, **kwargs):
+        tau = real(chain, **kwargs)
+        tau[1] = np.nan
+        return tau
+
+    monkeypatch.setattr(emcee.autocorr, "integrated_time", nan_tau)
+    with pytest.warns(ConvergenceWarning, match="tau not estimable"):
+        run = sample(model, seed=1, settings=settings)
+    assert not run.converged
+    assert run.n_steps == 100
+    assert run.burn == 50
+    assert run.chain.shape[1] == 50
+    assert np.isfinite(run.parameters["mass"]).all()
+    # negative control: with tau estimated, the burn-in is 3 tau, well under half
+    assert honest.burn < 20

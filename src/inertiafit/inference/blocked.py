@@ -25,6 +25,9 @@ still) becomes a direction of nearly independent draws. Each sweep, vectorised o
 
 One sweep costs ``O(K)`` and its mixing does not depend on ``K``: the whole run is linear in the
 number of segments. The draws are exact MCMC for the same posterior as the joint sampler's.
+Every chain starts inside the support (:meth:`BlockedGibbs.start`), so every state it visits
+has a finite density and finite coordinates; the shared proposal can be re-fitted to a warm-up
+run's draws (:meth:`BlockedGibbs.refit_shared_proposal`).
 """
 
 from __future__ import annotations
@@ -189,25 +192,104 @@ class BlockedGibbs:
     def start(
         self, n_chains: int, random: np.random.Generator
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Chains started from the proposals, each leaf redrawn until inside its box."""
-        n_shared = 2 * len(self.star.shared)
-        s_log = np.empty((n_chains, n_shared))
-        if n_shared:
-            filled = 0
-            for _ in range(200):
-                cand = self.proposal.draw(4 * n_chains, random)
-                cand = cand[np.isfinite(self.shared_model.log_prob(cand))]  # type: ignore[union-attr]
-                take = min(len(cand), n_chains - filled)
-                s_log[filled : filled + take] = cand[:take]
-                filled += take
-                if filled == n_chains:
-                    break
-            else:
-                raise RuntimeError("blocked sampler: could not start the shared bodies")
+        """Chains started inside the support: every body in its box, every density finite.
+
+        The shared bodies are drawn from their proposal and each leaf's total from its evidence,
+        redrawn until inside the leaf's box. Where a leaf's box and its evidence leave no room
+        for those shared draws (a tight leaf total minus a shared draw from the wide evidence of
+        the attachment alone, below the smallest inertia the leaf's box allows), the chain
+        starts again from new shared draws; failing that, from the Laplace fit of the whole
+        model. A chain is never started outside the support.
+        """
+        s_log = self._shared_draws(n_chains, random)
         ta = student_t_draws(*self.gravity, (n_chains,), random) / self.g
         tb = student_t_draws(*self.inertia, (n_chains,), random)
         ta, tb = self.fit_leaves(s_log, ta, tb, random)
+        for _ in range(50):
+            bad = ~self.in_support(s_log, ta, tb)
+            if not bad.any():
+                return s_log, ta, tb
+            n_bad = int(bad.sum())
+            s_new = self._shared_draws(n_bad, random)
+            na = student_t_draws(*self.gravity, (n_bad,), random) / self.g
+            nb = student_t_draws(*self.inertia, (n_bad,), random)
+            na, nb = self.fit_leaves(s_new, na, nb, random, tries=20)
+            s_log[bad], ta[bad], tb[bad] = s_new, na, nb
+        bad = ~self.in_support(s_log, ta, tb)
+        if bad.any():
+            s_new, na, nb = self._laplace_draws(int(bad.sum()), random)
+            s_log[bad], ta[bad], tb[bad] = s_new, na, nb
         return s_log, ta, tb
+
+    def _shared_draws(self, n: int, random: np.random.Generator) -> np.ndarray:
+        """``n`` draws of the shared bodies from their proposal, each inside its own box."""
+        n_shared = 2 * len(self.star.shared)
+        s_log = np.empty((n, n_shared))
+        if n_shared:
+            filled = 0
+            for _ in range(200):
+                cand = self.proposal.draw(4 * n, random)
+                cand = cand[np.isfinite(self.shared_model.log_prob(cand))]  # type: ignore[union-attr]
+                take = min(len(cand), n - filled)
+                s_log[filled : filled + take] = cand[:take]
+                filled += take
+                if filled == n:
+                    break
+            else:
+                raise RuntimeError("blocked sampler: could not start the shared bodies")
+        return s_log
+
+    def _laplace_draws(self, n: int, random: np.random.Generator):
+        """``n`` states inside the support, from the Laplace fit of the whole model.
+
+        The last resort of :meth:`start`: a Gaussian around the joint mode, narrowed until
+        enough draws land inside every box.
+        """
+        from inertiafit.inference.moves import laplace_fit
+
+        mode, cov = laplace_fit(self.model, random)
+        z = np.empty((0, self.model.ndim))
+        for _ in range(60):
+            cand = random.multivariate_normal(mode, cov, size=4 * n)
+            z = np.vstack([z, cand[np.isfinite(self.model.log_prob(cand))]])
+            if len(z) >= n:
+                return self.from_joint_coordinates(z[:n])
+            cov = cov / 4
+        return self.from_joint_coordinates(np.repeat(mode[None, :], n, 0))
+
+    def refit_shared_proposal(self, s_draws) -> bool:
+        """Centre the shared proposal on draws of the shared bodies and match their covariance.
+
+        ``s_draws`` is ``(..., 2 * n_shared)``: shared coordinates from a warm-up run of the
+        sampler, whose posterior (shared bodies given every condition) the leaves' boxes can
+        make narrower than, or shift away from, the shared bodies' own posterior
+        ``pi_S L_shared`` that the proposal was first fitted to. The degrees of freedom and the
+        widening stay. Returns ``False`` (proposal unchanged) where the draws' covariance is
+        not positive definite.
+        """
+        flat = np.reshape(s_draws, (-1, np.shape(s_draws)[-1]))
+        if len(flat) <= flat.shape[1] or not np.all(np.isfinite(flat)):
+            return False
+        cov = np.atleast_2d(np.cov(flat, rowvar=False))
+        try:
+            proposal = StudentTProposal(flat.mean(0), cov, self.proposal.df)
+        except np.linalg.LinAlgError:
+            return False
+        self.proposal = proposal
+        return True
+
+    def reset_acceptance(self) -> None:
+        """Start the acceptance counts of :attr:`acceptance` afresh."""
+        self.accepted[:] = 0
+        self.proposed[:] = 0
+
+    def in_support(self, s_log, ta, tb) -> np.ndarray:
+        """Whether each chain's state has a finite density: shared and leaf boxes, ``(...,)``."""
+        sa, sb = self._shared_totals(s_log)
+        ok = np.isfinite(self._leaf_log_prior(ta - sa, tb - sb)).all(-1)
+        if self.star.shared:
+            ok &= np.isfinite(self.shared_model.log_prob(s_log))  # type: ignore[union-attr]
+        return ok
 
     def fit_leaves(self, s_log, ta, tb, random: np.random.Generator, tries: int = 200):
         """Redraw, from the evidence, the leaf totals that leave a leaf outside its box."""
@@ -292,6 +374,17 @@ class BlockedGibbs:
         self.proposed[2] += n
         keep = acc[:, None]
         return np.where(keep, new, s_log), np.where(keep, ta_new, ta), np.where(keep, tb_new, tb)
+
+    def from_joint_coordinates(self, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The state ``(S, T_a, T_b)`` of joint coordinates ``z`` (inverse of the next)."""
+        z = np.asarray(z, float)
+        shared = [2 * j + c for j in self.star.shared for c in (0, 1)]
+        s_log = z[..., shared]
+        sa, sb = self._shared_totals(s_log)
+        leaves = list(self.star.leaves)
+        ta = sa + np.exp(z[..., [2 * j for j in leaves]])
+        tb = sb + np.exp(z[..., [2 * j + 1 for j in leaves]])
+        return s_log, ta, tb
 
     def joint_coordinates(self, s_log, ta, tb) -> np.ndarray:
         """``(log a, log b)`` of every body in the model's order, ``(..., 2 * n_bodies)``."""

@@ -13,7 +13,10 @@ chunk the integrated autocorrelation time ``tau`` of every coordinate is estimat
 * the rank-normalised split R-hat of every reported parameter is at most ``r_hat_max``, and
 * the bulk ESS of every reported parameter is at least ``ess_min``,
 
-or when ``max_steps`` is reached, with a :class:`~inertiafit.errors.ConvergenceWarning`.
+or when ``max_steps`` is reached, with a :class:`~inertiafit.errors.ConvergenceWarning`. Where
+``tau`` cannot be estimated (a coordinate that never moved), the chain counts as too short and
+the first half is dropped. The blocked sampler re-fits its proposal once, the first time the
+chain is too short (see :class:`_BlockedChains`).
 """
 
 from __future__ import annotations
@@ -97,7 +100,8 @@ class SamplerRun:
     tau : ndarray, shape (ndim,)
         Integrated autocorrelation time of each sampled coordinate (steps).
     n_steps, burn : int
-        Steps taken in all and steps dropped at the start.
+        Steps taken in all and steps dropped at the start (the blocked sampler's warm-up, if
+        any, not counted: ``diagnostics["warmup"]``).
     acceptance : float
         Mean acceptance fraction.
     converged : bool
@@ -215,9 +219,24 @@ class _EmceeChains:
     def acceptance(self) -> dict[str, float]:
         return {"acceptance": float(np.mean(self.sampler.acceptance_fraction))}
 
+    def warm_up(self, kept: np.ndarray) -> bool:  # noqa: ARG002 - the blocked chains' signature
+        """Nothing to re-fit: the joint moves keep their proposal (see :class:`_BlockedChains`)."""
+        return False
+
 
 class _BlockedChains:
-    """The blocked Gibbs sampler of :mod:`inertiafit.inference.blocked`, chains as walkers."""
+    """The blocked Gibbs sampler of :mod:`inertiafit.inference.blocked`, chains as walkers.
+
+    The shared proposal is first fitted to the shared bodies' own posterior (a Laplace fit).
+    That can be a poor guess of their posterior given every condition: a small segment measured
+    tightly on a heavy, noisily measured attachment bounds the attachment's inertia through the
+    segment's box, and the Laplace fit of a posterior cut by a box edge is too narrow. Then few
+    proposals are accepted and some chains stall in a tail. So the first time a check finds the
+    chain shorter than ``tau_factor * tau`` (at the first check: tau above 5 sweeps, where the
+    sampler is built for 1-3), :meth:`warm_up` re-fits the proposal to the kept shared draws
+    (mean and covariance; fixed from then on) and the chain so far becomes warm-up: dropped,
+    not counted in ``n_steps``, its length kept in ``warmup``.
+    """
 
     def __init__(self, model: Model, star: Star, n_walkers: int, seed: int) -> None:
         if star.shared:
@@ -232,6 +251,8 @@ class _BlockedChains:
         self.state = self.gibbs.start(n_walkers, self.random)
         self.steps: list[np.ndarray] = []
         self.n_steps = 0
+        self.warmup = 0
+        self.tuned = not star.shared  # nothing to re-fit without shared bodies
 
     def run(self, steps: int) -> None:
         block = np.empty((steps, len(self.state[1]), self.model.ndim))
@@ -240,6 +261,23 @@ class _BlockedChains:
             block[i] = self.gibbs.joint_coordinates(*self.state)
         self.steps.append(block)
         self.n_steps += steps
+
+    def warm_up(self, kept: np.ndarray) -> bool:
+        """Once: re-fit the shared proposal to ``kept`` draws and drop the chain so far.
+
+        ``kept`` is ``(chains, draws, ndim)``. Returns whether it did (the chains go on from
+        their current state).
+        """
+        if self.tuned:
+            return False
+        self.tuned = True
+        shared = [2 * j + c for j in self.gibbs.star.shared for c in (0, 1)]
+        if not self.gibbs.refit_shared_proposal(kept[..., shared]):
+            return False
+        self.gibbs.reset_acceptance()
+        self.warmup += self.n_steps
+        self.steps, self.n_steps = [], 0
+        return True
 
     def chain(self) -> np.ndarray:
         """Every sweep so far, ``(sweeps, chains, ndim)``."""
@@ -257,7 +295,7 @@ class _BlockedChains:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # nan for a block that never ran
             mean = float(np.nanmean(list(rates.values())))
-        return {"acceptance": mean, **rates}
+        return {"acceptance": mean, **rates, "warmup": float(self.warmup)}
 
 
 def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = None) -> SamplerRun:
@@ -308,14 +346,21 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
         chains.run(steps)
         chain = chains.chain()  # (steps, walkers, dim)
         tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
-        tau_max = float(np.max(tau))
-        burn = min(math.ceil(s.burn_factor * tau_max), chains.n_steps // 2)
+        # tau is nan where a coordinate never moved in any walker (or a draw is not finite):
+        # no estimate, so not converged yet; keep sampling, dropping the first half.
+        tau_max = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.inf
+        burn = chains.n_steps // 2
+        if math.isfinite(tau_max):
+            burn = min(math.ceil(s.burn_factor * tau_max), burn)
         kept = np.swapaxes(chain[burn:], 0, 1)  # (walkers, draws, dim)
         long_enough = chains.n_steps > s.tau_factor * tau_max
         if not long_enough and chains.n_steps < s.max_steps:
             # ESS and R-hat of every quantity cost more than the steps: wait for 50 tau.
             diag = {"ess_bulk_min": math.nan, "r_hat_max": math.nan, "tau_max": tau_max}
             _progress(show, chains.n_steps, s.max_steps, tau_max, math.nan, t0)
+            # Slow at the first check: the blocked sampler re-fits its proposal to these draws
+            # and the chain so far becomes warm-up (once; the joint sampler goes on as it is).
+            chains.warm_up(kept)
             continue
         params = model.parameters(kept, np.random.default_rng([seed, 1]))
         ess_min, rhat_max = _checks(params)
@@ -327,9 +372,11 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
     if show:
         sys.stderr.write("\n")
     if not converged:
+        last_tau = diag.get("tau_max", math.nan)
+        tau_text = f"{last_tau:.1f} steps" if math.isfinite(last_tau) else "not estimable"
         warnings.warn(
             f"sampler stopped at max_steps={s.max_steps} before converging "
-            f"(tau {diag.get('tau_max', math.nan):.1f} steps, min bulk ESS "
+            f"(tau {tau_text}, min bulk ESS "
             f"{diag.get('ess_bulk_min', math.nan):.0f}, max R-hat "
             f"{diag.get('r_hat_max', math.nan):.3f}); treat the intervals with care",
             ConvergenceWarning,
