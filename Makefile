@@ -27,7 +27,7 @@ test: $(STAMP)
 test-fast: $(STAMP)
 	$(PY) -m pytest -n 2 -m "not slow" $(PYTEST_ARGS)
 
-# The readers and the manifest parser under many random inputs (hypothesis, ~1 min): every
+# The readers and the manifest parser under many random inputs (hypothesis, ~3 min): every
 # input gives a valid trial or one InputError line, never another exception.
 fuzz: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider tests/test_io_properties.py --hypothesis-profile=fuzz $(FUZZ_ARGS)

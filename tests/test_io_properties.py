@@ -158,6 +158,167 @@ def test_analog_channels_round_trip_through_their_calibration(trial, gains, offs
         np.testing.assert_allclose(ds[q].values, trial[q], rtol=1e-8, atol=1e-9 * span)
 
 
+def _vendor_trial(draw, rate: float, n_max: int = 300) -> dict:
+    """A consistent trial at a vendor's fixed rate, starting at t = 0."""
+    trial = draw(trials())
+    n = min(len(trial["time"]), n_max)
+    t = np.arange(n) / rate
+    w = draw(st.floats(min_value=0.2, max_value=2.0)) * 2 * math.pi
+    speed = math.radians(draw(st.floats(min_value=20.0, max_value=300.0)))
+    angle = math.radians(draw(st.floats(min_value=-40, max_value=40))) + speed / w * np.sin(w * t)
+    torque = draw(st.floats(min_value=1.0, max_value=200.0)) * (np.cos(angle) + 0.2)
+    return {"time": t, "angle": angle, "velocity": speed * np.cos(w * t), "torque": torque,
+            "rate": rate}  # fmt: skip
+
+
+def _assert_quantised(ds: xr.Dataset, trial: dict, steps: dict[str, float]) -> None:
+    """Round trip of values written rounded to ``steps`` (SI units of each channel)."""
+    np.testing.assert_allclose(ds["time"].values, trial["time"], atol=1e-9)
+    for q, step in steps.items():
+        np.testing.assert_allclose(ds[q].values, trial[q], rtol=0, atol=0.51 * step + 1e-12)
+
+
+@given(st.data())
+def test_humac_round_trips_through_its_units(data):
+    torque_unit = data.draw(st.sampled_from(["Newton-Meters", "Foot-Pounds"]))
+    trial = _vendor_trial(data.draw, 100.0)
+    unit = "N*m" if torque_unit == "Newton-Meters" else "ft*lbf"
+    deg = {q: np.degrees(trial[q]) for q in ("angle", "velocity")}
+    torque = from_si(trial["torque"], "torque", unit, where="test")
+    lines = [f'"Status","Time(Seconds)","Position(Degrees)","Torque({torque_unit})","Speed(d/s)"']
+    lines += [
+        f'"1","{trial["time"][i]:.2f}","{deg["angle"][i]:.6f}","{torque[i]:.6f}",'
+        f'"{deg["velocity"][i]:.6f}"'
+        for i in range(len(trial["time"]))
+    ]
+    end = len(trial["time"]) / 100.0
+    lines.append(f'"0","{end:.2f}","0","0","0"')  # the closing row every HUMAC file ends with
+    ds = read_trial(_scratch("humac.csv", "\n".join(lines) + "\n"), format="humac")
+    steps = {"angle": math.radians(1e-6), "velocity": math.radians(1e-6)}
+    steps["torque"] = 1e-6 * (1.0 if unit == "N*m" else 1.3558179483314004)
+    _assert_quantised(ds, trial, steps)
+
+
+@given(st.data())
+def test_biodex_round_trips_through_its_units(data):
+    trial = _vendor_trial(data.draw, 100.0)
+    t_ms = 1000.0 * trial["time"]
+    deg = {q: np.degrees(trial[q]) for q in ("angle", "velocity")}
+    lines = [
+        "SYNTHETIC TEST TRIAL (6-header-line Biodex variant)",
+        "Knee Extension/Flexion  Passive  60 deg/sec",
+        "Right",
+        "03/14/2024 10:20:05",
+        (
+            "Columns: time (ms), torque (N-m), position (deg), anatomical position (deg), velocity "
+            "(deg/sec)"
+        ),
+        "",
+    ]
+    lines += [
+        f"{t_ms[i]:.0f}\t{trial['torque'][i]:.6f}\t{deg['angle'][i]:.6f}\t"
+        f"{90 - deg['angle'][i]:.6f}\t{deg['velocity'][i]:.6f}"
+        for i in range(len(t_ms))
+    ]
+    ds = read_trial(_scratch("biodex.txt", "\n".join(lines) + "\n"), format="biodex")
+    _assert_quantised(
+        ds, trial, {"angle": math.radians(1e-6), "velocity": math.radians(1e-6), "torque": 1e-6}
+    )
+
+
+@given(st.data())
+def test_vicon_devices_csv_round_trips(data):
+    n_sub = data.draw(st.sampled_from([10, 15]))
+    rate = 100.0 * n_sub
+    trial = _vendor_trial(data.draw, rate)
+    k = np.arange(len(trial["time"]))
+    frame, sub = 1 + k // n_sub, k % n_sub
+    deg = {q: np.degrees(trial[q]) for q in ("angle", "velocity")}
+    lines = ["", "Devices", f"{rate:g}", (",,Contrex - Angle,Contrex - Angular Velocity,"
+             "Contrex - Force,"), "Frame,Sub Frame,Angle,Angular velocity,Torque",
+             ",,deg,deg/s,N"]  # fmt: skip
+    lines += [
+        f"{frame[i]},{sub[i]},{deg['angle'][i]:.9f},{deg['velocity'][i]:.9f},"
+        f"{trial['torque'][i]:.9f}"
+        for i in k
+    ]
+    ds = read_trial(_scratch("vicon.csv", "\r\n".join(lines) + "\r\n"), format="vicon")
+    step = 1e-9
+    _assert_quantised(
+        ds, trial, {"angle": math.radians(step), "velocity": math.radians(step), "torque": step}
+    )
+
+
+@given(st.data())
+def test_isomed_round_trips_its_tenths(data):
+    trial = _vendor_trial(data.draw, 200.0)
+    t_ms = 1000.0 * trial["time"]
+    tenths = {
+        "angle": np.round(10 * np.degrees(trial["angle"])),
+        "torque": np.round(10 * trial["torque"]),
+        "velocity": np.round(10 * np.degrees(trial["velocity"])),
+    }
+    rows = [
+        "  ".join(
+            f"{v:>7.0f}"
+            for v in (
+                t_ms[i],
+                tenths["angle"][i],
+                tenths["torque"][i],
+                tenths["velocity"][i],
+                0,
+                2,
+                0,
+                0,
+                0,
+                0,
+            )
+        )
+        for i in range(len(t_ms))
+    ]
+    ds = read_trial(_scratch("isomed.txt", "\n".join(rows) + "\n"), format="isomed")
+    _assert_quantised(
+        ds, trial, {"angle": math.radians(0.1), "velocity": math.radians(0.1), "torque": 0.1}
+    )
+
+
+@given(st.data())
+def test_c3d_analog_channels_round_trip_through_their_calibration(data):
+    c3d = pytest.importorskip("c3d")
+    import warnings
+
+    trial = _vendor_trial(data.draw, 1000.0, n_max=400)
+    n = 10 * (len(trial["time"]) // 10)
+    trial = {q: (v[:n] if isinstance(v, np.ndarray) else v) for q, v in trial.items()}
+    gain = {
+        "angle": data.draw(st.floats(min_value=10, max_value=200)),
+        "velocity": data.draw(st.floats(min_value=10, max_value=500)),
+        "torque": data.draw(st.sampled_from([100.0, -1.44e5])),
+    }
+    units = {"angle": "deg", "velocity": "deg/s", "torque": "N*m"}
+    labels = {"angle": "Angle.1", "velocity": "Angular Velocity.1", "torque": "Torque.1"}
+    volts = {
+        q: (from_si(trial[q], q, units[q], where="test") / gain[q]).astype(np.float32)
+        for q in labels
+    }
+    writer = c3d.Writer(point_rate=100.0, analog_rate=1000.0)
+    writer.set_analog_labels([labels[q] for q in labels])
+    block = np.vstack([volts[q] for q in labels])
+    for f in range(n // 10):
+        writer.add_frames([(np.zeros((0, 5), np.float32), block[:, 10 * f : 10 * f + 10])])
+    path = _scratch("trial.c3d", b"")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # py-c3d warns that the file has no markers
+        with path.open("wb") as handle:
+            writer.write(handle)
+    cal = {q: {"scale": gain[q], "offset": 0.0, "unit": units[q]} for q in labels}
+    ds = read_trial(path, format="c3d", calibration=cal)
+    np.testing.assert_allclose(ds["time"].values, trial["time"], atol=1e-9)
+    for q in labels:  # float32 volts: 1e-7 of the largest value
+        span = float(np.max(np.abs(trial[q])))
+        np.testing.assert_allclose(ds[q].values, trial[q], rtol=0, atol=1e-6 * span)
+
+
 # --- anything else is an InputError --------------------------------------------------------
 
 
