@@ -6,6 +6,7 @@
 4. end_to_end   `inertiafit run` vs the cold-import floor (target <= 4x, < 400 MB)
 5. scaling      K segments in one study; a batch of small studies
 6. batch        run-many: a batch serially vs a local Dask cluster of 2 workers (target >= 1.6x)
+7. sbc          simulation-based calibration: rank histograms, coverage, negative controls
 
 Run:  .venv/bin/python benchmarks/run.py [--quick] [--json FILE] [--only NAME ...]
       [--pymc-python PATH]   (another venv's python with PyMC and inertiafit installed)
@@ -30,6 +31,7 @@ import end_to_end
 import peer_pymc
 import processing
 import sampler
+import sbc
 import scaling
 
 HERE = Path(__file__).resolve().parent
@@ -40,6 +42,7 @@ BENCHMARKS = {
     "end_to_end": end_to_end.run,
     "scaling": scaling.run,
     "batch": batch.run,
+    "sbc": sbc.run,
 }
 
 
