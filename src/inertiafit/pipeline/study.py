@@ -19,9 +19,8 @@ import pandas as pd
 from inertiafit._checks import check_probability
 from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError
-from inertiafit.inference.evidence import condition_evidence, study_priors
+from inertiafit.inference.evidence import study_model, study_priors
 from inertiafit.inference.fit import fit
-from inertiafit.inference.model import Model
 from inertiafit.inference.priors import Prior
 from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
@@ -159,7 +158,7 @@ def analyse_study(
     ideals = study_ideals(study)
     processed = process_study(study, echo=say)
     provenance = study_provenance(study, priors, processed)
-    model = Model(priors, condition_evidence(processed), gravity=study.gravity)
+    model = study_model(processed, priors)
     say(f"sampling the joint posterior of {len(priors)} bodies")
     trials = processed.all_trials  # trials.csv: skipped trials listed too
     used = processed.trials
