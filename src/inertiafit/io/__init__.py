@@ -6,7 +6,8 @@
   ``angle`` rad, ``velocity`` rad/s, ``torque`` N m; attrs ``source``, ``sampling_rate``,
   ``format``).
 - :func:`load_study` parses a study manifest into a :class:`Study` of :class:`BodySpec` and
-  :class:`TrialSpec`; :meth:`Study.read` reads one of its trials.
+  :class:`TrialSpec`, with its :class:`Calibration`; :meth:`Study.read` reads one of its
+  trials.
 
 Units are converted to SI once, here (:mod:`inertiafit.io.units`). The formats are described
 in ``docs/formats.md``.
@@ -14,7 +15,14 @@ in ``docs/formats.md``.
 
 from __future__ import annotations
 
-from inertiafit.io.manifest import BodySpec, Study, TrialSpec, load_study, read_trial_spec
+from inertiafit.io.manifest import (
+    BodySpec,
+    Calibration,
+    Study,
+    TrialSpec,
+    load_study,
+    read_trial_spec,
+)
 from inertiafit.io.readers import available_formats, read_trial, reader_options, register_reader
 from inertiafit.io.trial import make_trial
 from inertiafit.io.units import FT_LBF, IN_LBF, SI_UNITS, to_si, unit_factor
@@ -24,6 +32,7 @@ __all__ = [
     "IN_LBF",
     "SI_UNITS",
     "BodySpec",
+    "Calibration",
     "Study",
     "TrialSpec",
     "available_formats",

@@ -24,6 +24,13 @@
     speed = 240                         # nominal deg/s; required for fast trials
     window = [0.10, 0.22]               # optional manual acceleration window (s)
     torque_sign = -1                    # optional, +1 or -1 ("motion": see apply_torque_sign)
+    lag = 0.003                         # optional (also in [defaults]): fixed torque lag (s)
+    [calibration]                       # optional; systematic errors of the instrument
+    torque_gain_sd = 0.01               # relative SD of the torque gain (default 0)
+    angle_offset_sd = 0.5               # deg (default 0; absorbed by the gravity phase)
+    lag = "estimate"                    # or seconds, fixed for every trial
+    lag_bounds = [-0.02, 0.02]          # s, search range of the estimated lag
+    max_lag_spread = 0.001              # s, lags further from the study's median are flagged
 
 :func:`load_study` checks all of it and returns a :class:`Study`; every problem is one
 :class:`~inertiafit.errors.InputError` line naming the manifest and the key path, such as
@@ -56,12 +63,14 @@ from inertiafit.physics import GRAVITY
 
 __all__ = [
     "BODY_KEYS",
+    "CALIBRATION_KEYS",
     "DEFAULT_KEYS",
     "KINDS",
     "ON_TRIAL_ERROR",
     "TOP_KEYS",
     "TRIAL_KEYS",
     "BodySpec",
+    "Calibration",
     "Study",
     "TrialSpec",
     "file_sha256",
@@ -73,9 +82,22 @@ KINDS = ("quasi-static", "fast")
 #: What a trial that cannot be read or processed does to the study: stop it (the default) or be
 #: skipped, listed in ``trials.csv``, the warnings and ``report.html``.
 ON_TRIAL_ERROR = ("stop", "skip")
-TOP_KEYS = ("name", "description", "gravity", "bodies", "defaults", "trials", "on_trial_error")
+TOP_KEYS = (
+    "name",
+    "description",
+    "gravity",
+    "bodies",
+    "defaults",
+    "trials",
+    "on_trial_error",
+    "calibration",
+)
 BODY_KEYS = ("prior", "ideal")
-DEFAULT_KEYS = ("format", "columns", "units", "calibration", "torque_sign", "options")
+DEFAULT_KEYS = ("format", "columns", "units", "calibration", "torque_sign", "options", "lag")
+#: Keys of the top-level ``[calibration]`` table (:class:`Calibration`).
+CALIBRATION_KEYS = ("torque_gain_sd", "angle_offset_sd", "lag", "lag_bounds", "max_lag_spread")
+#: Largest lag (s) a manifest may state or search: a lag is milliseconds, not seconds.
+_MAX_LAG = 1.0
 TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *DEFAULT_KEYS)
 
 
@@ -97,6 +119,42 @@ class BodySpec:
     name: str
     prior: str | dict[str, Any]
     ideal: dict[str, Any] | None = None
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Systematic errors of the instrument: the manifest's optional ``[calibration]`` table.
+
+    Attributes
+    ----------
+    torque_gain_sd : float
+        Relative standard deviation of the torque channel's gain (0.01 = 1 %), from the
+        manufacturer's specification or a calibration certificate. A gain error multiplies
+        every inertia and gravity moment of the study together. Default 0: not included (the
+        reports say so in one line).
+    angle_offset_sd : float
+        Standard deviation (deg) of the angle channel's zero. Accepted so that a lab can
+        declare it, but it changes nothing: an angle offset ``d`` turns the gravity model
+        ``M_g sin(theta + phi)`` into ``M_g sin(theta + d + phi)``, which the fitted phase
+        absorbs exactly (``phi' = phi + d``), and the inertia does not depend on the angle's
+        zero. Default 0.
+    lag : float or "estimate"
+        Seconds the torque channel lags the angle and velocity channels. ``"estimate"`` (the
+        default): estimated in every fast trial
+        (:func:`inertiafit.processing.lag.estimate_lag`); a number fixes it for every trial
+        (a trial's own ``lag`` key, or ``[defaults] lag``, still wins).
+    lag_bounds : (float, float)
+        Search range (s) of the estimated lag, lower < upper.
+    max_lag_spread : float
+        Seconds by which a trial's estimated lag may differ from the study's median before it
+        is flagged (more, if its own standard error is larger: ``3 x lag_se``).
+    """
+
+    torque_gain_sd: float = 0.0
+    angle_offset_sd: float = 0.0
+    lag: float | str = "estimate"
+    lag_bounds: tuple[float, float] = (-0.02, 0.02)
+    max_lag_spread: float = 0.001
 
 
 @dataclass(frozen=True)
@@ -131,6 +189,10 @@ class TrialSpec:
         Keyword options passed to the reader.
     index : int
         Position of the entry in ``[[trials]]`` (0-based), as used in error messages.
+    lag : float or None
+        The torque channel's lag (s) the manifest fixes for this trial: its own ``lag``, else
+        ``[defaults] lag``, else a number in ``[calibration] lag``; ``None`` when the lag is
+        to be estimated (fast trials).
     """
 
     file: Path
@@ -146,6 +208,7 @@ class TrialSpec:
     condition: str
     options: dict[str, Any] = field(default_factory=dict)
     index: int = 0
+    lag: float | None = None
 
     def read(self) -> xr.Dataset:
         """Read this trial; see :func:`read_trial_spec`."""
@@ -191,6 +254,8 @@ class Study:
     on_trial_error : {"stop", "skip"}
         What a trial that cannot be read or processed does: stop the study (default), or be
         skipped and listed (see :func:`inertiafit.processing.study.process_study`).
+    calibration : Calibration
+        The ``[calibration]`` table (defaults when absent).
     """
 
     name: str
@@ -201,6 +266,7 @@ class Study:
     trials: list[TrialSpec]
     description: str = ""
     on_trial_error: str = "stop"
+    calibration: Calibration = field(default_factory=Calibration)
 
     @property
     def conditions(self) -> dict[str, tuple[str, ...]]:
@@ -232,8 +298,8 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
     xarray.Dataset
         The Trial of :func:`inertiafit.io.read_trial`, torque signed by
         ``spec.torque_sign`` (:func:`inertiafit.io.trial.apply_torque_sign`), with extra attrs
-        ``condition``, ``kind``, ``torque_sign`` and, when set, ``speed`` (deg/s) and
-        ``window`` (s, two numbers).
+        ``condition``, ``kind``, ``torque_sign`` and, when set, ``speed`` (deg/s),
+        ``window`` (s, two numbers) and ``lag`` (s, the torque channel's fixed lag).
 
     Raises
     ------
@@ -255,6 +321,8 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
         trial.attrs["speed"] = spec.speed
     if spec.window is not None:
         trial.attrs["window"] = list(spec.window)
+    if spec.lag is not None:
+        trial.attrs["lag"] = spec.lag
     return trial
 
 
@@ -289,6 +357,81 @@ def _positive(value: object, *, where: str, unit: str) -> float:
     if value <= 0:
         raise _fail(where, f"must be positive ({unit}), got {value!r}")
     return float(value)
+
+
+def _number(value: object, *, where: str, what: str) -> float:
+    """A finite number (not a bool), else a one-line error saying ``what`` was expected."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise _fail(where, f"expected {what}, got {value!r}")
+    return float(value)
+
+
+def _lag(value: object, *, where: str) -> float:
+    lag = _number(value, where=where, what="a lag in seconds (0.003 = 3 ms)")
+    if abs(lag) >= _MAX_LAG:
+        raise _fail(where, f"a lag in seconds must be below {_MAX_LAG:g} s, got {value!r}")
+    return lag
+
+
+def _calibration(value: object, *, where: str) -> Calibration:
+    """Check the top-level ``[calibration]`` table."""
+    here = f"{where}: calibration"
+    table = _table(value, where=here, what="torque_gain_sd, angle_offset_sd, lag, ...")
+    for key in table:
+        if key not in CALIBRATION_KEYS:
+            raise _fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(CALIBRATION_KEYS)})")
+    out: dict[str, Any] = {}
+    if "torque_gain_sd" in table:
+        sd = _number(
+            table["torque_gain_sd"],
+            where=f"{here}.torque_gain_sd",
+            what="a relative SD (0.01 = 1 %)",
+        )
+        if not 0 <= sd < 1:
+            raise _fail(
+                f"{here}.torque_gain_sd",
+                f"expected a relative SD in [0, 1) (0.01 = 1 %), got {table['torque_gain_sd']!r}",
+            )
+        out["torque_gain_sd"] = sd
+    if "angle_offset_sd" in table:
+        sd = _number(
+            table["angle_offset_sd"], where=f"{here}.angle_offset_sd", what="an SD in deg"
+        )
+        if sd < 0:
+            raise _fail(f"{here}.angle_offset_sd", f"expected an SD >= 0 (deg), got {sd!r}")
+        out["angle_offset_sd"] = sd
+    if "lag" in table:
+        lag = table["lag"]
+        out["lag"] = "estimate" if lag == "estimate" else _lag(lag, where=f"{here}.lag")
+    if "lag_bounds" in table:
+        bounds = table["lag_bounds"]
+        ok = (
+            isinstance(bounds, list)
+            and len(bounds) == 2
+            and all(
+                isinstance(b, int | float) and not isinstance(b, bool) and math.isfinite(b)
+                for b in bounds
+            )
+        )
+        if not ok or not bounds[0] < bounds[1]:
+            raise _fail(
+                f"{here}.lag_bounds",
+                f"expected two increasing numbers [lower, upper] in s, got {bounds!r}",
+            )
+        if max(abs(bounds[0]), abs(bounds[1])) >= _MAX_LAG:
+            raise _fail(
+                f"{here}.lag_bounds",
+                f"lags in seconds must be below {_MAX_LAG:g} s, got {bounds!r}",
+            )
+        out["lag_bounds"] = (float(bounds[0]), float(bounds[1]))
+    if "max_lag_spread" in table:
+        spread = _number(
+            table["max_lag_spread"], where=f"{here}.max_lag_spread", what="a time in seconds"
+        )
+        if spread < 0:
+            raise _fail(f"{here}.max_lag_spread", f"expected a time >= 0 (s), got {spread!r}")
+        out["max_lag_spread"] = spread
+    return Calibration(**out)
 
 
 def _table(value: object, *, where: str, what: str) -> dict[str, Any]:
@@ -347,6 +490,8 @@ def _settings(table: Mapping[str, Any], *, where: str) -> dict[str, Any]:
         out["options"] = dict(
             _table(table["options"], where=f"{where}.options", what="reader option = value")
         )
+    if "lag" in table:
+        out["lag"] = _lag(table["lag"], where=f"{where}.lag")
     return out
 
 
@@ -368,9 +513,10 @@ def load_study(path: str | Path) -> Study:
     InputError
         One line naming the manifest and the key path: a TOML syntax error (with its line),
         an unknown key, a missing trial file, an unknown body, a body without prior, a bad
-        ``kind``, ``speed``, ``window``, ``torque_sign`` or ``on_trial_error``, an unknown
-        format, unit or option, no trials, or a condition with fast trials but no
-        quasi-static one.
+        ``kind``, ``speed``, ``window``, ``torque_sign``, ``lag`` or ``on_trial_error``, an
+        unknown format, unit or option, a bad ``[calibration]`` value (unknown key, wrong
+        type, not finite, a negative SD, ``lag_bounds`` not increasing), no trials, or a
+        condition with fast trials but no quasi-static one.
     """
     path = Path(path).expanduser().resolve()
     where = str(path)
@@ -402,6 +548,7 @@ def load_study(path: str | Path) -> Study:
             f"{where}: on_trial_error", f'expected "stop" or "skip", got {on_trial_error!r}'
         )
 
+    calibration = _calibration(doc.get("calibration", {}), where=where)
     bodies = _bodies(doc, where=where)
     raw_defaults = _table(
         doc.get("defaults", {}), where=f"{where}: defaults", what="reader settings"
@@ -421,6 +568,8 @@ def load_study(path: str | Path) -> Study:
     if not isinstance(raw_trials, list):
         raise _fail(f"{where}: trials", "expected [[trials]] entries (an array of tables)")
     order = list(bodies)
+    if not isinstance(calibration.lag, str):  # a study-wide fixed lag
+        defaults.setdefault("lag", calibration.lag)
     trials = [
         _trial(entry, i, defaults=defaults, order=order, base=path.parent, where=where)
         for i, entry in enumerate(raw_trials)
@@ -455,6 +604,7 @@ def load_study(path: str | Path) -> Study:
         trials=trials,
         description=description,
         on_trial_error=on_trial_error,
+        calibration=calibration,
     )
 
 
@@ -570,4 +720,5 @@ def _trial(
         condition="+".join(bodies),
         options=merged["options"],
         index=i,
+        lag=own.get("lag", defaults.get("lag")),
     )

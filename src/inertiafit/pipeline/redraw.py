@@ -52,7 +52,7 @@ def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
 
 
 #: Columns added to ``trials.csv`` later, with the value of a table written before them.
-LATER_TRIAL_COLUMNS = {"status": "ok"}
+LATER_TRIAL_COLUMNS: dict[str, object] = {"status": "ok", "lag": math.nan, "lag_se": math.nan}
 
 
 def _read_table(

@@ -9,7 +9,9 @@ The steps, in the order a study runs them (``docs/processing.md`` explains each 
 3. :func:`find_window`: the uniform-acceleration window of a fast trial
    (:class:`AccelerationWindow`), or a manual one;
 4. :func:`estimate_inertia`: the inertia of a fast trial by least squares and by the paper's
-   frame mean (:class:`InertiaEstimate`);
+   frame mean (:class:`InertiaEstimate`), after removing the lag of the torque channel behind
+   the velocity (:func:`estimate_lag`, :class:`LagEstimate`, or fixed by the manifest), with
+   its sensitivity to the gravity model;
 5. :func:`speed_effect`: per-speed summaries, one-way ANOVA and Tukey HSD per condition.
 
 :func:`process_study` runs steps 1-4 over every trial of a study manifest
@@ -28,6 +30,7 @@ from inertiafit.processing.gravity import (
     integrated_autocorrelation_time,
 )
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
+from inertiafit.processing.lag import LagEstimate, estimate_lag
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import ProcessedStudy, process_study
 from inertiafit.processing.window import AccelerationWindow, find_window
@@ -36,9 +39,11 @@ __all__ = [
     "AccelerationWindow",
     "GravityFit",
     "InertiaEstimate",
+    "LagEstimate",
     "ProcessedStudy",
     "effective_sample_size",
     "estimate_inertia",
+    "estimate_lag",
     "find_window",
     "fit_gravity",
     "fit_gravity_arrays",

@@ -14,6 +14,15 @@ frames by ``alpha^2`` and so leans on the frames where the ratio is best determi
 
 The torque and the gravity model go through the same zero-lag filter as the velocity, so the
 filtered torque and the acceleration derived from the filtered velocity see the same filter.
+
+Before that, the lag of the torque channel behind the velocity is removed: estimated over the
+whole move (:func:`~inertiafit.processing.lag.estimate_lag`) or fixed by the manifest, the
+filtered torque is advanced by it (:func:`~inertiafit.processing.lag.advance`).
+
+The gravity model subtracted is ``A sin(theta) + B cos(theta) + C`` (``A = M_g cos(phi)``,
+``B = M_g sin(phi)``, ``C = c``); :attr:`InertiaEstimate.gravity_sensitivity` is the
+derivative of the reported inertia with respect to ``(A, B, C)``, for carrying the gravity
+model's error, which every fast trial of a condition shares.
 """
 
 from __future__ import annotations
@@ -31,18 +40,22 @@ from inertiafit.io.trial import apply_torque_sign
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
+    lowpass_array,
     lowpass_arrays,
     sampling_rate,
     source_of,
 )
 from inertiafit.processing.gravity import GravityFit, integrated_autocorrelation_time
+from inertiafit.processing.lag import LAG_BOUNDS, advance, estimate_lag
 from inertiafit.processing.window import LEVEL, MIN_SPEED_CHANGE, TOLERANCE, find_window_arrays
 
 __all__ = [
+    "LAG_SOURCES",
     "NEGATIVE_SE",
     "SATURATION_RUN",
     "InertiaEstimate",
     "estimate_inertia",
+    "gravity_coefficients",
     "saturated_run",
 ]
 
@@ -50,6 +63,8 @@ __all__ = [
 SATURATION_RUN = 5
 #: An inertia below zero by more than this many standard errors is an error, not a flag.
 NEGATIVE_SE = 3.0
+#: Where a trial's lag comes from: estimated from the trial, or fixed by the manifest.
+LAG_SOURCES = ("estimated", "manifest")
 
 _SIGN_HINT = "torque sign: set torque_sign = -1 for this trial in the manifest"
 
@@ -79,6 +94,18 @@ class InertiaEstimate:
     velocity, acceleration : ndarray or None
         The filtered velocity (rad/s) and acceleration (rad/s^2) of the whole trial, on its
         time samples, that the estimate was made from (for figures of the window).
+    lag : float
+        Seconds the torque channel lags the velocity (positive: the torque is late), removed
+        before the estimate: estimated, or fixed by the manifest (``lag_source``).
+    lag_se : float
+        Its standard error (s); 0 when fixed by the manifest, NaN when it could not be
+        estimated (a flag says so, and no lag was removed).
+    lag_source : {"estimated", "manifest"}
+        Where ``lag`` comes from.
+    gravity_sensitivity : (float, float, float)
+        ``dI/d(A, B, C)`` (kg m^2 per N m) for the subtracted gravity model ``A sin(theta) +
+        B cos(theta) + C``: how the reported inertia moves with an error of the gravity
+        model, including the estimated lag's response to it.
     """
 
     inertia: float
@@ -92,6 +119,10 @@ class InertiaEstimate:
     source: str = ""
     velocity: NDArray | None = field(default=None, repr=False, compare=False)
     acceleration: NDArray | None = field(default=None, repr=False, compare=False)
+    lag: float = 0.0
+    lag_se: float = 0.0
+    lag_source: str = "manifest"
+    gravity_sensitivity: tuple[float, float, float] = (math.nan, math.nan, math.nan)
 
 
 def saturated_run(x: NDArray, *, run: int = SATURATION_RUN) -> int:
@@ -123,6 +154,8 @@ def estimate_inertia(
     torque_sign: int = 1,
     cutoff: float = CUTOFF,
     order: int = ORDER,
+    lag: float | None = None,
+    lag_bounds: Sequence[float] = LAG_BOUNDS,
 ) -> InertiaEstimate:
     """Estimate the moment of inertia from a fast trial.
 
@@ -141,17 +174,26 @@ def estimate_inertia(
         Multiplies the torque (a device that reports the opposite sign).
     cutoff, order
         Zero-lag Butterworth low-pass applied to torque and velocity.
+    lag : float, optional
+        The torque channel's lag behind the velocity (s), fixed; default
+        ``trial.attrs["lag"]`` if present (the manifest's ``lag``), else estimated
+        (:func:`~inertiafit.processing.lag.estimate_lag`). ``lag=0`` removes none.
+    lag_bounds : (float, float)
+        Search range (s) of the estimated lag.
 
     Returns
     -------
     InertiaEstimate
-        Both estimators, the window, flags (short window, slightly negative inertia, saturated
-        torque or velocity) and the filtered velocity and acceleration.
+        Both estimators, the window, the lag removed, the sensitivity to the gravity model,
+        flags (short window, slightly negative inertia, saturated torque or velocity, a lag at
+        a bound of ``lag_bounds`` or not estimated) and the filtered velocity and
+        acceleration.
 
     Raises
     ------
     InputError
-        If ``torque_sign`` is not +-1, the trial is too short or has no usable window, or the
+        If ``torque_sign`` is not +-1, ``lag`` is not a finite number or ``lag_bounds`` not
+        two increasing finite numbers, the trial is too short or has no usable window, or the
         inertia is negative by more than ``NEGATIVE_SE`` standard errors (with the hint to set
         ``torque_sign = -1``).
     """
@@ -164,16 +206,45 @@ def estimate_inertia(
         # read with read_trial and never signed: refuse with the real cause, not a negative
         # inertia and a torque_sign = -1 hint that cannot help
         apply_torque_sign(trial, torque_sign, kind="fast")
+    fixed = lag if lag is not None else trial.attrs.get("lag")
+    fixed = _check_lag(fixed, lag_bounds, source)
     rate = sampling_rate(trial)
     time = trial["time"].values
     raw_torque = torque_sign * trial["torque"].values
     raw_velocity = trial["velocity"].values
-    # Subtract the gravity model before filtering: by linearity the same as filtering both,
-    # and the model then passes through exactly the filter the torque does.
-    net = raw_torque - gravity.torque(trial["angle"].values)
+    angle = trial["angle"].values
     torque_f, velocity_f, alpha_f = lowpass_arrays(
-        time, net, raw_velocity, rate, cutoff=cutoff, order=order, source=source
+        time, raw_torque, raw_velocity, rate, cutoff=cutoff, order=order, source=source
     )
+    # The gravity model A sin(theta) + B cos(theta) + C (= gravity.torque) passes through
+    # exactly the filter the torque does: by linearity the same as filtering the torque minus
+    # the model. A filtered constant is the constant.
+    terms = [
+        lowpass_array(np.sin(angle), rate, cutoff=cutoff, order=order, source=source),
+        lowpass_array(np.cos(angle), rate, cutoff=cutoff, order=order, source=source),
+        np.ones_like(time, dtype=np.float64),
+    ]
+    coefficients = gravity_coefficients(gravity)
+    gravity_f = sum((c * term for c, term in zip(coefficients, terms, strict=True)), start=0.0)
+    flags: list[str] = []
+    lag_sensitivity: tuple[float, ...] = (0.0, 0.0, 0.0)  # d lag / d(A, B, C)
+    if fixed is None:
+        found = estimate_lag(
+            time,
+            torque_f,
+            gravity_f,
+            alpha_f,
+            velocity_f,
+            bounds=lag_bounds,
+            terms=terms,
+        )
+        lag_value, lag_se, lag_source = found.lag, found.lag_se, "estimated"
+        flags.extend(found.flags)
+        lag_sensitivity = found.sensitivity
+    else:
+        lag_value, lag_se, lag_source = fixed, 0.0, "manifest"
+    shifted = advance(torque_f, lag_value, rate)
+    net_f = shifted - gravity_f
     win = find_window_arrays(
         time,
         velocity_f,
@@ -186,7 +257,7 @@ def estimate_inertia(
         min_speed_change=MIN_SPEED_CHANGE,
     )
     sl = slice(win.start_index, win.stop_index)
-    y = torque_f[sl]
+    y = net_f[sl]
     alpha = alpha_f[sl]
 
     sxx = float(alpha @ alpha)
@@ -197,8 +268,15 @@ def estimate_inertia(
     tau = integrated_autocorrelation_time(residuals)
     se = math.sqrt(sigma2 * tau / sxx)
     frame_mean = float(np.mean(y / alpha))
+    # dI/d(A, B, C): directly through the model subtracted, and through the estimated lag
+    # (dI/dL is the window's regression of the advanced torque's time derivative).
+    d_inertia_d_lag = float(alpha @ np.gradient(shifted, time)[sl]) / sxx
+    sensitivity = tuple(
+        float(-(alpha @ term[sl]) / sxx + d_inertia_d_lag * d_lag)
+        for term, d_lag in zip(terms, lag_sensitivity, strict=True)
+    )
 
-    flags = list(win.flags)
+    flags = [*win.flags, *flags]
     if value < 0:
         if value + NEGATIVE_SE * se < 0:
             raise InputError(
@@ -231,4 +309,38 @@ def estimate_inertia(
         source=source,
         velocity=velocity_f,
         acceleration=alpha_f,
+        lag=float(lag_value),
+        lag_se=float(lag_se),
+        lag_source=lag_source,
+        gravity_sensitivity=(sensitivity[0], sensitivity[1], sensitivity[2]),
     )
+
+
+def gravity_coefficients(gravity: GravityFit) -> tuple[float, float, float]:
+    """``(A, B, C)`` of a gravity model written ``A sin(theta) + B cos(theta) + C``.
+
+    ``A = M_g cos(phi)``, ``B = M_g sin(phi)``, ``C = c``: the same torque as
+    :meth:`GravityFit.torque`, ``M_g sin(theta + phi) + c``.
+    """
+    moment, phase = gravity.gravity_moment, gravity.gravity_phase
+    return moment * math.cos(phase), moment * math.sin(phase), gravity.offset
+
+
+def _check_lag(value: object, bounds: Sequence[float], source: str) -> float | None:
+    """A fixed lag as a float (``None`` to estimate it), after checking it and the bounds."""
+    try:
+        lower, upper = (float(b) for b in bounds)
+        ok = math.isfinite(lower) and math.isfinite(upper) and lower < upper
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise InputError(
+            f"{source}: lag_bounds: expected two increasing numbers (s), got {tuple(bounds)!r}"
+        )
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+        raise InputError(f"{source}: lag: expected a number of seconds, got {value!r}")
+    if not math.isfinite(value):
+        raise InputError(f"{source}: lag: expected a finite number of seconds, got {value!r}")
+    return float(value)

@@ -29,11 +29,13 @@ from inertiafit.io import Study, TrialSpec, load_study
 from inertiafit.io.manifest import file_sha256
 from inertiafit.processing.gravity import GravityFit, fit_gravity
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
+from inertiafit.processing.lag import lag_consistency_flags
 from inertiafit.stats import inverse_variance_mean
 
 __all__ = [
     "PHASE_TOLERANCE",
     "RATE_TOLERANCE",
+    "SENSITIVITY_COLUMNS",
     "TRACE_COLUMNS",
     "TRIAL_COLUMNS",
     "ProcessedStudy",
@@ -61,6 +63,8 @@ TRIAL_COLUMNS = [
     "inertia_se",
     "gravity_moment_se",
     "offset",
+    "lag",
+    "lag_se",
     "status",
 ]
 #: ``status`` of a trial whose values were used, and of one skipped (``on_trial_error``).
@@ -76,6 +80,9 @@ TRACE_COLUMNS = [
     "velocity",
     "acceleration",
 ]
+#: Columns of :attr:`ProcessedStudy.sensitivity`: ``dI/dA``, ``dI/dB``, ``dI/dC`` of each fast
+#: trial for the gravity model ``A sin(theta) + B cos(theta) + C`` (kg m^2 per N m).
+SENSITIVITY_COLUMNS = ["sin", "cos", "offset"]
 #: Relative difference of sampling rates tolerated within one study.
 RATE_TOLERANCE = 0.01
 #: Phase difference between conditions (rad) beyond which bodies are not mounted in line.
@@ -110,6 +117,12 @@ class ProcessedStudy:
         Per trial in manifest order: ``file`` (relative to the manifest), ``path``,
         ``sha256`` (of the file as read; ``None`` if it could not be read), ``condition``,
         ``kind``, ``status`` and ``reader`` (:meth:`~inertiafit.io.TrialSpec.reader_settings`).
+    sensitivity : pandas.DataFrame
+        A row per fast trial used, indexed by ``file`` (as in ``trials``), columns
+        :data:`SENSITIVITY_COLUMNS`: the trial's
+        :attr:`~inertiafit.processing.inertia.InertiaEstimate.gravity_sensitivity`, the
+        derivative of its inertia with respect to the condition's gravity model
+        (not written to ``trials.csv``).
     """
 
     study: Study
@@ -119,6 +132,7 @@ class ProcessedStudy:
     warnings: list[str] = field(default_factory=list)
     skipped: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=TRIAL_COLUMNS))
     provenance: list[dict[str, Any]] = field(default_factory=list)
+    sensitivity: pd.DataFrame = field(default_factory=lambda: _sensitivity_frame({}))
 
     @property
     def all_trials(self) -> pd.DataFrame:
@@ -130,6 +144,12 @@ class ProcessedStudy:
         return both.sort_values("file", key=lambda f: f.map(order), kind="stable").reset_index(
             drop=True
         )
+
+
+def _sensitivity_frame(rows: dict[str, tuple[float, float, float]]) -> pd.DataFrame:
+    frame = pd.DataFrame.from_dict(rows, orient="index", columns=SENSITIVITY_COLUMNS)
+    frame.index.name = "file"
+    return frame.astype(float)
 
 
 def usable_trials(trials: pd.DataFrame) -> pd.DataFrame:
@@ -151,22 +171,51 @@ def _relative(path: Path, base: Path) -> str:
 
 
 def combine_gravity(fits: list[GravityFit], where: str) -> GravityFit:
-    """One gravity model from several quasi-static fits: inverse-variance means."""
+    """One gravity model from several quasi-static fits: the inverse-covariance mean.
+
+    The coefficients ``(A, B, C)`` of the fits (independent trials) are combined with weights
+    their inverse covariances, ``Sigma = (sum Sigma_i^-1)^-1``, ``beta = Sigma sum Sigma_i^-1
+    beta_i``; ``M_g``, ``phi``, the offset and their standard errors follow from ``beta`` and
+    ``Sigma`` as for one fit. ``n`` and ``n_effective`` add up, ``se_dof`` too (the noise
+    models are independent), ``residual_rms`` is the pooled one, ``angle_range`` the widest,
+    ``median_speed`` the median of the fits' and the flags are all the fits' flags. A fit whose
+    covariance is singular (an exact model) is used alone.
+    """
     if len(fits) == 1:
         return fits[0]
-    ses = [f.gravity_moment_se for f in fits]
-
-    def mean(name: str) -> float:
-        return inverse_variance_mean([getattr(f, name) for f in fits], ses)[0]
-
-    moment, moment_se = inverse_variance_mean([f.gravity_moment for f in fits], ses)
+    covs = [np.asarray(f.covariance, dtype=np.float64) for f in fits]
+    if any(np.linalg.matrix_rank(c) < 3 for c in covs):
+        exact = next(f for f, c in zip(fits, covs, strict=True) if np.linalg.matrix_rank(c) < 3)
+        return dataclasses.replace(exact, source=where)
+    precisions = [np.linalg.inv(c) for c in covs]
+    cov = np.linalg.inv(sum(precisions))
+    cov = 0.5 * (cov + cov.T)
+    coef = cov @ sum(
+        p @ np.asarray(f.coefficients, float) for p, f in zip(precisions, fits, strict=True)
+    )
+    a, b, c = (float(v) for v in coef)
+    moment = math.hypot(a, b)
+    g_m = np.array([a / moment, b / moment, 0.0])
+    g_p = np.array([-b / moment**2, a / moment**2, 0.0])
+    n = sum(f.n for f in fits)
     return dataclasses.replace(
         fits[0],
         gravity_moment=moment,
-        gravity_moment_se=moment_se,
-        gravity_phase=mean("gravity_phase"),
-        offset=mean("offset"),
+        gravity_moment_se=float(math.sqrt(g_m @ cov @ g_m)),
+        gravity_phase=math.atan2(b, a),
+        gravity_phase_se=float(math.sqrt(g_p @ cov @ g_p)),
+        offset=c,
+        offset_se=float(math.sqrt(cov[2, 2])),
+        residual_rms=float(math.sqrt(sum(f.n * f.residual_rms**2 for f in fits) / n)),
+        n=n,
+        n_effective=float(sum(f.n_effective for f in fits)),
+        angle_range=max(f.angle_range for f in fits),
+        median_speed=float(np.median([f.median_speed for f in fits])),
         source=where,
+        flags=tuple(dict.fromkeys(flag for f in fits for flag in f.flags)),
+        coefficients=coef,
+        covariance=cov,
+        se_dof=float(sum(f.se_dof for f in fits)),
     )
 
 
@@ -246,6 +295,13 @@ def process_study(
     A reader's own flags (``trial.attrs["flags"]``, e.g. a velocity sign it corrected) join
     the trial's ``flags`` and the warnings. Every trial file is hashed (SHA-256) as it is
     read, for :attr:`ProcessedStudy.provenance`.
+
+    The torque channel's lag is removed from every fast trial: fixed by the manifest
+    (:attr:`~inertiafit.io.TrialSpec.lag`) or estimated within the manifest's
+    ``[calibration] lag_bounds``. One recording chain has one lag, so an estimated lag that
+    differs from the median of the study's estimated lags by more than
+    ``max(max_lag_spread, 3 x lag_se)`` is flagged
+    (:func:`~inertiafit.processing.lag.lag_consistency_flags`).
     """
     if not isinstance(study, Study):
         study = load_study(study)
@@ -281,6 +337,7 @@ def process_study(
     traces: list[pd.DataFrame] = []
     count: dict[str, int] = {}
     used_fast: dict[str, list[InertiaEstimate]] = {}
+    fast_estimates: list[tuple[TrialSpec, InertiaEstimate]] = []
     for spec, ds in data:
         if spec.kind != "fast":
             continue
@@ -294,18 +351,29 @@ def process_study(
                 speed_deg_s=spec.speed,
                 cutoff=cutoff,
                 order=order,
+                lag=spec.lag,
+                lag_bounds=study.calibration.lag_bounds,
             ),
         )
         if est is None:
             continue
         notes.extend(f"{est.source}: {flag}" for flag in est.flags)
         used_fast.setdefault(spec.condition, []).append(est)
+        fast_estimates.append((spec, est))
         rows[spec.index] = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
         number = count[spec.condition] = count.get(spec.condition, 0) + 1
         traces.append(
             _trace(spec.condition, number, ds["time"].values, est, float(spec.speed or 0.0))
         )
     run.check_left(used_fast, "fast")
+    _check_lags(study, fast_estimates, rows, notes)
+    sensitivity = _sensitivity_frame(
+        {
+            rows[spec.index]["file"]: est.gravity_sensitivity
+            for spec, est in fast_estimates
+            if spec.index in rows
+        }
+    )
     trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS)
     return ProcessedStudy(
         study=study,
@@ -317,6 +385,7 @@ def process_study(
         warnings=list(dict.fromkeys(notes)),  # a reader flag a later step repeats: once
         skipped=pd.DataFrame([run.skipped[i] for i in sorted(run.skipped)], columns=TRIAL_COLUMNS),
         provenance=[run.provenance[t.index] for t in study.trials],
+        sensitivity=sensitivity,
     )
 
 
@@ -467,8 +536,31 @@ def _row(
             n_window=inertia.n_window,
             residual_rms=inertia.residual_rms,
             flags="; ".join(dict.fromkeys([*reader, *inertia.flags])),
+            lag=inertia.lag,
+            lag_se=inertia.lag_se,
         )
     return row
+
+
+def _check_lags(
+    study: Study,
+    estimates: list[tuple[TrialSpec, InertiaEstimate]],
+    rows: dict[int, dict],
+    notes: list[str],
+) -> None:
+    """Flag estimated lags far from the study's median (one recording chain, one lag)."""
+    estimated = {
+        spec.index: (est.lag, est.lag_se)
+        for spec, est in estimates
+        if est.lag_source == "estimated"
+    }
+    flags = lag_consistency_flags(estimated, max_spread=study.calibration.max_lag_spread)
+    for spec, est in estimates:
+        flag = flags.get(spec.index)
+        if flag:
+            row = rows[spec.index]
+            row["flags"] = "; ".join(filter(None, [row["flags"], flag]))
+            notes.append(f"{est.source}: {flag}")
 
 
 def _check_phases(study: Study, gravity: dict[str, GravityFit], notes: list[str]) -> None:

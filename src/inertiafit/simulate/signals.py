@@ -78,6 +78,26 @@ class Noise:
         large, near the filter's cut-off.
     servo_ripple_frequency : float
         Frequency of the servo ripple (Hz); 10-25 Hz straddles the 20 Hz default cut-off.
+    lag : float
+        Delay (s) of the torque channel behind the angle and velocity channels (a
+        dynamometer's own filtering, an analog-to-digital card): the torque sample at ``t`` is
+        the true torque at ``t - lag``, computed from the same analytic motion at that time,
+        not interpolated. The channel noise is not delayed (it has no timing). Default 0;
+        ``|lag|`` must be below ``Motion.rest``.
+    torque_gain : float
+        Gain of the torque channel: the recorded torque is this times the torque the channel
+        would record with a perfect calibration (every part of it, noise included). Default
+        1; must be positive.
+    hysteresis : float
+        Direction-dependent friction (N m), a rate-independent hysteresis: after the shaft
+        starts or reverses, the friction torque relaxes towards ``hysteresis`` times the
+        direction of motion (it opposes the motion, so the motor's torque carries it with the
+        motion's sign) exponentially with the angle travelled, over ``hysteresis_angle`` (a
+        Dahl friction model); at rest it holds its value. It follows the torque channel's
+        angle (so ``lag`` delays it too). Default 0 (none).
+    hysteresis_angle : float
+        Angle (rad) over which the friction builds up after a start or a reversal; default
+        2 deg. ``0`` switches it instantly (Coulomb friction).
     """
 
     torque_sd: float = 0.4
@@ -90,6 +110,10 @@ class Noise:
     trial_offset_sd: float = 0.0
     servo_ripple: float = 0.0
     servo_ripple_frequency: float = 15.0
+    lag: float = 0.0
+    torque_gain: float = 1.0
+    hysteresis: float = 0.0
+    hysteresis_angle: float = 2.0 * DEG
 
     @classmethod
     def none(cls) -> Noise:
@@ -336,6 +360,39 @@ def _servo_ripple(
     return velocity, acceleration
 
 
+def _hysteresis_torque(angle: np.ndarray, amplitude: float, angle_scale: float) -> np.ndarray:
+    """Direction-dependent friction torque (N m) along an angle trace (Dahl model).
+
+    From zero at the first sample, the friction relaxes towards ``amplitude`` times the
+    direction of motion, ``F = d A + (F0 - d A) exp(-s / angle_scale)``, with ``s`` the angle
+    travelled since the motion started or last reversed and ``F0`` the friction then; where the
+    angle does not change it holds its value. ``angle_scale = 0`` switches it at once
+    (Coulomb friction).
+    """
+    theta = np.asarray(angle, dtype=np.float64)
+    out = np.zeros(theta.size)
+    step = np.diff(theta, prepend=theta[:1])
+    moving = np.flatnonzero(step)
+    if moving.size == 0 or amplitude == 0.0:
+        return out
+    # the direction of the last move, carried through the samples at rest
+    last = np.maximum.accumulate(np.where(step != 0, np.arange(theta.size), 0))
+    direction = np.where(np.arange(theta.size) >= moving[0], np.sign(step[last]), 0.0)
+    bounds = [int(moving[0]), *(np.flatnonzero(np.diff(direction)) + 1).tolist(), theta.size]
+    bounds = sorted(set(bounds))
+    held = 0.0
+    for k in range(len(bounds) - 1):
+        lo, hi = bounds[k], bounds[k + 1]
+        target = amplitude * direction[lo]
+        travelled = np.cumsum(np.abs(step[lo:hi]))
+        if angle_scale > 0:
+            out[lo:hi] = target + (held - target) * np.exp(-travelled / angle_scale)
+        else:
+            out[lo:hi] = np.where(travelled > 0, target, held)
+        held = float(out[hi - 1])
+    return out
+
+
 def _ar1(rng: np.random.Generator, n: int, sd: float, rho: float) -> np.ndarray:
     """Stationary AR(1) noise of standard deviation ``sd`` and lag-one correlation ``rho``."""
     if sd == 0.0 or n == 0:
@@ -376,7 +433,7 @@ def _dataset(
 
 
 def _check_hard_imperfections(noise: Noise, motion: Motion) -> None:
-    """Reject a negative servo ripple or start overshoot, and the two overshoots together."""
+    """Reject a negative servo ripple, start overshoot or hysteresis, and both overshoots."""
     if not (noise.servo_ripple >= 0 and noise.servo_ripple_frequency > 0):
         msg = (
             "noise: servo_ripple must be >= 0 and servo_ripple_frequency > 0, got "
@@ -392,6 +449,56 @@ def _check_hard_imperfections(noise: Noise, motion: Motion) -> None:
     if motion.start_overshoot and motion.overshoot:
         msg = "motion: set overshoot or start_overshoot, not both"
         raise ValueError(msg)
+    if not (noise.hysteresis >= 0 and noise.hysteresis_angle >= 0):
+        msg = (
+            "noise: hysteresis and hysteresis_angle must be >= 0, got "
+            f"{noise.hysteresis!r}, {noise.hysteresis_angle!r}"
+        )
+        raise ValueError(msg)
+
+
+def _check_torque_channel(noise: Noise, motion: Motion) -> None:
+    """Reject a torque lag of ``Motion.rest`` or more, and a gain that is not positive."""
+    if not (math.isfinite(noise.lag) and abs(noise.lag) < motion.rest):
+        msg = f"noise: lag must be finite and below rest={motion.rest!r} s, got {noise.lag!r}"
+        raise ValueError(msg)
+    if not (math.isfinite(noise.torque_gain) and noise.torque_gain > 0):
+        msg = f"noise: torque_gain must be positive, got {noise.torque_gain!r}"
+        raise ValueError(msg)
+
+
+def _torque_kinematics(
+    n: int,
+    rate: float,
+    speed: float,
+    motion: Motion,
+    noise: Noise,
+    phase: float,
+    servo_phase: float,
+    sampling: str,
+) -> tuple[_Profile, np.ndarray]:
+    """Acceleration and angle at the torque channel's times ``t - noise.lag``.
+
+    The same analytic profile and the same integration as the angle and velocity channels,
+    on the delayed grid; the move starts after ``Motion.rest`` and ``|lag| < rest``, so the
+    delayed grid starts at rest too. The grid is ``(k - lag rate) / rate``: a lag of whole
+    samples gives exactly the undelayed channel's times, so a corner of the profile that
+    falls on a sample falls on the same side of it.
+    """
+    dt = 1.0 / rate
+    delay = noise.lag * rate  # in samples
+    t = (np.arange(n) - delay) / rate
+    profile = _motion(t, speed, motion, noise, phase, servo_phase)
+    theta = np.empty(n)
+    theta[0] = motion.start
+    np.cumsum(0.5 * dt * (profile.velocity[1:] + profile.velocity[:-1]), out=theta[1:])
+    theta[1:] += motion.start
+    if sampling == "average":
+        edges = _motion(
+            (np.arange(n + 1) - 0.5 - delay) * dt, speed, motion, noise, phase, servo_phase
+        )
+        profile = dataclasses.replace(profile, acceleration=np.diff(edges.velocity) / dt)
+    return profile, theta
 
 
 def _motion(
@@ -475,14 +582,16 @@ def simulate_trial(
         A Trial (``time`` s; ``angle`` rad, ``velocity`` rad/s, ``torque`` N m) with extra
         attrs: ``kind``, ``speed`` (deg/s), ``true_inertia``, ``true_gravity_moment``,
         ``true_phi``, ``true_offset`` (including any per-trial shift), ``ramp_start`` and
-        ``ramp_end`` (s, the simulated uniform-acceleration period).
+        ``ramp_end`` (s, the simulated uniform-acceleration period, in the velocity's time),
+        ``true_lag`` (s) and ``true_torque_gain`` (``Noise.lag``, ``Noise.torque_gain``).
 
     Raises
     ------
     ValueError
         If ``kind`` or ``sampling`` is unknown, ``speed_deg_s`` or ``rate`` is not positive,
-        the servo ripple or start overshoot is negative, or the range is too short for the
-        speed with the start overshoot.
+        the servo ripple, start overshoot or hysteresis is negative, the range is too short for the
+        speed with the start overshoot, ``noise.lag`` is not below ``motion.rest`` in
+        magnitude or ``noise.torque_gain`` is not positive.
     """
     if kind not in KINDS:
         msg = f"kind must be one of {KINDS}, got {kind!r}"
@@ -500,6 +609,7 @@ def simulate_trial(
     motion = Motion() if motion is None else motion
     speed = speed_deg_s * DEG
     _check_hard_imperfections(noise, motion)
+    _check_torque_channel(noise, motion)
 
     distance = abs(motion.end - motion.start)
     if motion.start_overshoot:
@@ -532,20 +642,31 @@ def simulate_trial(
             acceleration=np.diff(edges.velocity) / dt,
         )
 
+    # The torque channel's own times: t - lag (the same profile, not interpolated).
+    torque_profile, torque_theta = profile, theta
+    if noise.lag:
+        torque_profile, torque_theta = _torque_kinematics(
+            n, rate, speed, motion, noise, phase, servo_phase, sampling
+        )
+
     # The shift is relative to the quasi-static trial, whose offset is the reference.
     shift = 0.0
     if noise.trial_offset_sd and kind == "fast":
         shift = rng.normal(0.0, noise.trial_offset_sd)
     rho = math.exp(-1.0 / (rate * noise.drift_time)) if noise.drift_time > 0 else 0.0
     torque = (
-        inertia * profile.acceleration
-        + gravity_moment * np.sin(theta + phi)
+        inertia * torque_profile.acceleration
+        + gravity_moment * np.sin(torque_theta + phi)
         + offset
         + shift
         + _ar1(rng, n, noise.drift_sd, rho)
     )
+    if noise.hysteresis:
+        torque += _hysteresis_torque(torque_theta, noise.hysteresis, noise.hysteresis_angle)
     if noise.torque_sd:
         torque += rng.normal(0.0, noise.torque_sd, n)
+    if noise.torque_gain != 1.0:
+        torque *= noise.torque_gain
     velocity = profile.velocity.copy()
     if noise.velocity_sd:
         velocity += rng.normal(0.0, noise.velocity_sd, n)
@@ -562,5 +683,9 @@ def simulate_trial(
         "true_offset": float(offset + shift),
         "ramp_start": float(profile.ramp_start),
         "ramp_end": float(profile.ramp_end),
+        "true_lag": float(noise.lag),
+        "true_torque_gain": float(noise.torque_gain),
     }
+    if noise.hysteresis:
+        attrs["true_hysteresis"] = float(noise.hysteresis)
     return _dataset(t, angle, velocity, torque, source=source, rate=rate, attrs=attrs)

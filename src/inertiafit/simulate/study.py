@@ -46,7 +46,9 @@ def simulate_study(
     For each condition (a tuple of mounted bodies) one quasi-static trial and
     ``trials_per_speed`` fast trials at every speed are written to ``out_dir/data``; the
     condition's inertia and gravity moment are the sums over its bodies. The true parameters
-    are written to ``out_dir/truth.toml`` (not read by the pipeline).
+    are written to ``out_dir/truth.toml`` (not read by the pipeline), with the torque
+    channel's ``lag`` and ``torque_gain`` (:class:`Noise`), which a study-wide ``noise``
+    gives every trial.
 
     Parameters
     ----------
@@ -183,7 +185,9 @@ def simulate_study(
 
     manifest = out / "study.toml"
     manifest.write_text("\n".join(lines), encoding="utf-8")
-    _write_truth(out / "truth.toml", truth, conditions, labels, gravity, phi, offset)
+    _write_truth(
+        out / "truth.toml", truth, conditions, labels, gravity, phi, offset, noise or Noise()
+    )
     return manifest
 
 
@@ -195,13 +199,20 @@ def _write_truth(
     gravity: float,
     phi: float,
     offset: float,
+    noise: Noise,
 ) -> None:
-    """Write ``truth.toml``: the true parameters of every body and condition (SI units)."""
+    """Write ``truth.toml``: the true parameters of every body and condition (SI units).
+
+    ``lag`` (s) and ``torque_gain`` are the torque channel's (``Noise.lag``,
+    ``Noise.torque_gain``); the inertias and moments are the bodies' own, before the gain.
+    """
     lines = [
         "# True parameters of the simulated study (not read by the pipeline).",
         f"gravity = {gravity!r}",
         f"phi = {float(phi)!r}",
         f"offset = {float(offset)!r}",
+        f"lag = {float(noise.lag)!r}",
+        f"torque_gain = {float(noise.torque_gain)!r}",
         "",
     ]
     for b, body in truth.items():
