@@ -31,7 +31,9 @@ def test_text_report_states_intervals_identification_and_the_mass_bound(attachme
     assert "converged" in text
     assert "data + prior" in text
     assert "m >= (M_g/g)^2/I = 2.64" in text
-    assert text.count("\n") == 1 + 5 + 1  # header lines, 5 quantities, one bound line
+    # header lines, 5 quantities, one bound line, the calibration line
+    assert text.count("\n") == 1 + 5 + 1 + 1
+    assert text.endswith("every interval assumes an exact torque calibration.")
 
 
 def test_html_display_is_a_table(attachment):

@@ -140,6 +140,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=9.81,
         help="gravitational acceleration, m/s^2 (default 9.81, as the paper)",
     )
+    fit.add_argument(
+        "--torque-gain-sd",
+        type=_number,
+        default=0.0,
+        metavar="S",
+        help="relative SD of the torque channel's gain (0.01 = 1 %%), carried in the posterior "
+        "(default 0: calibration uncertainty not included)",
+    )
     _add_common(fit, "inertiafit-output")
 
     run = sub.add_parser(
@@ -263,6 +271,7 @@ def _fit(args) -> int:
         gravity_moment_sd=args.gravity_moment_sd,
         gravity_moment_n=args.gravity_moment_n,
         gravity=args.gravity,
+        torque_gain_sd=args.torque_gain_sd,
         out=args.out,
         seed=args.seed,
         hdi_prob=args.hdi_prob,

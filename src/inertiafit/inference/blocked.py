@@ -23,6 +23,12 @@ still) becomes a direction of nearly independent draws. Each sweep, vectorised o
    the leaf condition's evidence itself (Student-t or Gaussian in the totals), so the
    acceptance ratio is just ``pi_k(T'_k - S_k) / pi_k(T_k - S_k)``.
 
+With a torque gain (:mod:`inertiafit.inference.model`, "Systematic errors") the coordinates
+are observed-scale, ``log gain`` is the last shared coordinate (moved with the shared bodies),
+and a leaf's prior is taken at its true values, ``(T_k - S_k) / gain``. Where a condition's
+inertia evidence is coupled to its gravity moment (``Condition.coupling``), the leaf proposal
+still draws exactly from the leaf condition's evidence: ``M_g`` first, then ``I`` given it.
+
 One sweep costs ``O(K)`` and its mixing does not depend on ``K``: the whole run is linear in the
 number of segments. The draws are exact MCMC for the same posterior as the joint sampler's.
 Every chain starts inside the support (:meth:`BlockedGibbs.start`), so every state it visits
@@ -120,7 +126,9 @@ class _Boxes:
         self.upper = {k: np.array([p.upper[k] for p in priors]) for k in keys}
 
 
-def _evidence_arrays(observations: list[Observation]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _evidence_arrays(
+    observations: list[Observation],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     center = np.array([o.center for o in observations])
     scale = np.array([o.scale for o in observations])
     df = np.array([o.df for o in observations])
@@ -151,8 +159,13 @@ class BlockedGibbs:
         self.shared_model = self.shared_submodel(model, star) if star.shared else None
         self.proposal = StudentTProposal(shared_mode, shared_cov, df)
         leaf_conds = [model.conditions[ci] for ci in star.leaf_conditions]
+        self.leaf_conditions = leaf_conds
         self.inertia = _evidence_arrays([c.inertia for c in leaf_conds])  # type: ignore[misc]
+        self.inertia_shared = np.array([c.inertia.shared_sd for c in leaf_conds])  # type: ignore[union-attr]
+        self.coupling = np.array([c.coupling for c in leaf_conds])
         self.gravity = _evidence_arrays([c.gravity_moment for c in leaf_conds])  # type: ignore[misc]
+        self.n_shared = len(star.shared)
+        self.has_gain = model.has_gain
         self.boxes = _Boxes([model.priors[model.bodies[j]] for j in star.leaves])
         self.accepted = np.zeros(3)
         self.proposed = np.zeros(3)
@@ -164,15 +177,47 @@ class BlockedGibbs:
             {model.bodies[j]: model.priors[model.bodies[j]] for j in star.shared},
             [model.conditions[ci] for ci in star.shared_conditions],
             gravity=model.gravity,
+            torque_gain_sd=model.torque_gain_sd,
         )
 
+    @staticmethod
+    def shared_columns(model: Model, star: Star) -> list[int]:
+        """Columns of the model's coordinates held in the shared state (``log gain`` last)."""
+        cols = [2 * j + c for j in star.shared for c in (0, 1)]
+        return [*cols, model.ndim - 1] if model.has_gain else cols
+
+    def _log_gain(self, s_log) -> np.ndarray:
+        """``log gain`` of each state, ``(...,)`` (zeros without a gain)."""
+        if self.has_gain:
+            return s_log[..., -1]
+        return np.zeros(np.shape(s_log)[:-1])
+
+    def _leaf_draws(self, lead: tuple[int, ...], random: np.random.Generator):
+        """Leaf totals drawn from their conditions' evidence: ``M_g``, then ``I`` given it."""
+        ta = student_t_draws(*self.gravity, lead, random) / self.g
+        tb = student_t_draws(*self.inertia, lead, random)
+        if self.inertia_shared.any():
+            tb = tb + self.inertia_shared * random.standard_normal(np.shape(tb))
+        if self.coupling.any():
+            tb = tb - self.coupling * (self.gravity[0] - self.g * ta)
+        return ta, tb
+
     # -- densities ---------------------------------------------------------------------------
-    def _leaf_log_prior(self, a, b) -> np.ndarray:
-        """``log pi_k(a, b)`` for every leaf, ``(..., L)``; ``-inf`` outside the boxes."""
+    def _leaf_log_prior(self, a, b, log_gain=None) -> np.ndarray:
+        """``log pi_k(a, b)`` for every leaf, ``(..., L)``; ``-inf`` outside the boxes.
+
+        ``a``, ``b`` are observed-scale; with ``log_gain`` (``(...,)``) the density is that of
+        the observed-scale values, ``pi_k(a / gain, b / gain) / gain^2``.
+        """
+        shift: float | np.ndarray = 0.0
+        if log_gain is not None and self.has_gain:
+            inv = np.exp(-np.asarray(log_gain))[..., None]
+            a, b = a * inv, b * inv
+            shift = -2.0 * np.asarray(log_gain)[..., None]
         ok = (a > 0) & (b > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             meas = feasible_measure(np.where(ok, a, 1.0), np.where(ok, b, 1.0), self.boxes)
-            return np.where(ok, np.log(meas) - np.log(np.where(ok, a, 1.0)), -np.inf)
+            return np.where(ok, np.log(meas) - np.log(np.where(ok, a, 1.0)) + shift, -np.inf)
 
     def _shared_totals(self, s_log) -> tuple[np.ndarray, np.ndarray]:
         """Shared bodies' contribution to each leaf condition: ``(..., L)`` in ``a`` and ``b``."""
@@ -180,13 +225,14 @@ class BlockedGibbs:
             shape = (*np.shape(s_log)[:-1], len(self.star.leaves))
             return np.zeros(shape), np.zeros(shape)
         w = self.star.weights.T
-        return np.exp(s_log[..., 0::2]) @ w, np.exp(s_log[..., 1::2]) @ w
+        k2 = 2 * self.n_shared
+        return np.exp(s_log[..., 0:k2:2]) @ w, np.exp(s_log[..., 1:k2:2]) @ w
 
     def _shared_log_target(self, s_log, ta, tb) -> np.ndarray:
         assert self.shared_model is not None
         own = self.shared_model.log_prob(s_log)
         sa, sb = self._shared_totals(s_log)
-        return own + self._leaf_log_prior(ta - sa, tb - sb).sum(-1)
+        return own + self._leaf_log_prior(ta - sa, tb - sb, self._log_gain(s_log)).sum(-1)
 
     # -- start and sweeps --------------------------------------------------------------------
     def start(
@@ -202,8 +248,7 @@ class BlockedGibbs:
         model. A chain is never started outside the support.
         """
         s_log = self._shared_draws(n_chains, random)
-        ta = student_t_draws(*self.gravity, (n_chains,), random) / self.g
-        tb = student_t_draws(*self.inertia, (n_chains,), random)
+        ta, tb = self._leaf_draws((n_chains,), random)
         ta, tb = self.fit_leaves(s_log, ta, tb, random)
         for _ in range(50):
             bad = ~self.in_support(s_log, ta, tb)
@@ -211,8 +256,7 @@ class BlockedGibbs:
                 return s_log, ta, tb
             n_bad = int(bad.sum())
             s_new = self._shared_draws(n_bad, random)
-            na = student_t_draws(*self.gravity, (n_bad,), random) / self.g
-            nb = student_t_draws(*self.inertia, (n_bad,), random)
+            na, nb = self._leaf_draws((n_bad,), random)
             na, nb = self.fit_leaves(s_new, na, nb, random, tries=20)
             s_log[bad], ta[bad], tb[bad] = s_new, na, nb
         bad = ~self.in_support(s_log, ta, tb)
@@ -223,7 +267,7 @@ class BlockedGibbs:
 
     def _shared_draws(self, n: int, random: np.random.Generator) -> np.ndarray:
         """``n`` draws of the shared bodies from their proposal, each inside its own box."""
-        n_shared = 2 * len(self.star.shared)
+        n_shared = 2 * len(self.star.shared) + int(self.has_gain)
         s_log = np.empty((n, n_shared))
         if n_shared:
             filled = 0
@@ -286,7 +330,7 @@ class BlockedGibbs:
     def in_support(self, s_log, ta, tb) -> np.ndarray:
         """Whether each chain's state has a finite density: shared and leaf boxes, ``(...,)``."""
         sa, sb = self._shared_totals(s_log)
-        ok = np.isfinite(self._leaf_log_prior(ta - sa, tb - sb)).all(-1)
+        ok = np.isfinite(self._leaf_log_prior(ta - sa, tb - sb, self._log_gain(s_log))).all(-1)
         if self.star.shared:
             ok &= np.isfinite(self.shared_model.log_prob(s_log))  # type: ignore[union-attr]
         return ok
@@ -294,12 +338,12 @@ class BlockedGibbs:
     def fit_leaves(self, s_log, ta, tb, random: np.random.Generator, tries: int = 200):
         """Redraw, from the evidence, the leaf totals that leave a leaf outside its box."""
         sa, sb = self._shared_totals(s_log)
+        log_gain = self._log_gain(s_log)
         for _ in range(tries):
-            bad = ~np.isfinite(self._leaf_log_prior(ta - sa, tb - sb))
+            bad = ~np.isfinite(self._leaf_log_prior(ta - sa, tb - sb, log_gain))
             if not bad.any():
                 break
-            na = student_t_draws(*self.gravity, np.shape(ta)[:-1], random) / self.g
-            nb = student_t_draws(*self.inertia, np.shape(ta)[:-1], random)
+            na, nb = self._leaf_draws(np.shape(ta)[:-1], random)
             ta, tb = np.where(bad, na, ta), np.where(bad, nb, tb)
         return ta, tb
 
@@ -328,11 +372,11 @@ class BlockedGibbs:
                 self.proposed[0] += n
             s_log, ta, tb = self._shared_step_leaves_fixed(s_log, ta, tb, random)
         sa, sb = self._shared_totals(s_log)
-        cur_l = self._leaf_log_prior(ta - sa, tb - sb)
+        log_gain = self._log_gain(s_log)
+        cur_l = self._leaf_log_prior(ta - sa, tb - sb, log_gain)
         for _ in range(n_sub):
-            na = student_t_draws(*self.gravity, (n,), random) / self.g
-            nb = student_t_draws(*self.inertia, (n,), random)
-            new_l = self._leaf_log_prior(na - sa, nb - sb)
+            na, nb = self._leaf_draws((n,), random)
+            new_l = self._leaf_log_prior(na - sa, nb - sb, log_gain)
             with np.errstate(invalid="ignore"):
                 log_r = np.where(np.isfinite(new_l), new_l - cur_l, -np.inf)
             acc = np.log(random.uniform(size=log_r.shape)) < log_r
@@ -345,10 +389,13 @@ class BlockedGibbs:
 
     def _leaf_log_likelihood(self, ta, tb) -> np.ndarray:
         """Log evidence of every leaf condition at totals ``(ta, tb)``, summed over leaves."""
-        return (
-            student_t_logpdf(self.g * ta, *self.gravity, normalised=False)
-            + student_t_logpdf(tb, *self.inertia, normalised=False)
-        ).sum(-1)
+        out = student_t_logpdf(self.g * ta, *self.gravity, normalised=False).sum(-1)
+        if not (self.inertia_shared.any() or self.coupling.any()):
+            return out + student_t_logpdf(tb, *self.inertia, normalised=False).sum(-1)
+        for i, cond in enumerate(self.leaf_conditions):
+            at = cond.inertia_at(tb[..., i], self.g * ta[..., i])
+            out = out + cond.inertia.logpdf(at)  # type: ignore[union-attr]
+        return out
 
     def _shared_step_leaves_fixed(self, s_log, ta, tb, random: np.random.Generator):
         """Move the shared bodies with every leaf body held still (the totals follow).
@@ -364,6 +411,9 @@ class BlockedGibbs:
         na, nb = self._shared_totals(new)
         ta_new, tb_new = ta + (na - sa), tb + (nb - sb)
         lp_new = self.shared_model.log_prob(new) + self._leaf_log_likelihood(ta_new, tb_new)  # type: ignore[union-attr]
+        if self.has_gain:  # the leaves' true values move with the gain: their priors change
+            cur = cur + self._leaf_log_prior(ta - sa, tb - sb, self._log_gain(s_log)).sum(-1)
+            lp_new = lp_new + self._leaf_log_prior(ta - sa, tb - sb, self._log_gain(new)).sum(-1)
         with np.errstate(invalid="ignore"):
             log_r = (
                 lp_new - cur + self.proposal.log_density(s_log) - self.proposal.log_density(new)
@@ -378,8 +428,7 @@ class BlockedGibbs:
     def from_joint_coordinates(self, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The state ``(S, T_a, T_b)`` of joint coordinates ``z`` (inverse of the next)."""
         z = np.asarray(z, float)
-        shared = [2 * j + c for j in self.star.shared for c in (0, 1)]
-        s_log = z[..., shared]
+        s_log = z[..., self.shared_columns(self.model, self.star)]
         sa, sb = self._shared_totals(s_log)
         leaves = list(self.star.leaves)
         ta = sa + np.exp(z[..., [2 * j for j in leaves]])
@@ -394,6 +443,8 @@ class BlockedGibbs:
         for i, j in enumerate(self.star.shared):
             z[..., 2 * j] = s_log[..., 2 * i]
             z[..., 2 * j + 1] = s_log[..., 2 * i + 1]
+        if self.has_gain:
+            z[..., -1] = s_log[..., -1]
         with np.errstate(divide="ignore", invalid="ignore"):
             for i, j in enumerate(self.star.leaves):
                 z[..., 2 * j] = np.log(ta[..., i] - sa[..., i])

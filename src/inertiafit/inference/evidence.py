@@ -2,13 +2,15 @@
 
 :func:`condition_evidence` turns a processed study (:mod:`inertiafit.processing.study`) into one
 :class:`~inertiafit.inference.model.Condition` per set of mounted bodies: a Student-t on the mean
-of its fast trials' inertia, a Gaussian on its quasi-static gravity moment.
+of its fast trials' inertia, a Gaussian on its quasi-static gravity moment, and the error of the
+condition's gravity model, shared by all its fast trials (:func:`shared_gravity_error`).
 :func:`evidence_from_numbers` does the same for numbers quoted in a paper (values, mean ± SE,
 or mean with SD and ``n``).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -24,7 +26,13 @@ if TYPE_CHECKING:  # evidence reads these; importing them would load the process
     from inertiafit.io import Study
     from inertiafit.processing.study import ProcessedStudy
 
-__all__ = ["condition_evidence", "evidence_from_numbers", "study_model", "study_priors"]
+__all__ = [
+    "condition_evidence",
+    "evidence_from_numbers",
+    "shared_gravity_error",
+    "study_model",
+    "study_priors",
+]
 
 
 def study_priors(study: Study) -> dict[str, Prior]:
@@ -38,8 +46,45 @@ def study_priors(study: Study) -> dict[str, Prior]:
     return priors
 
 
+def shared_gravity_error(coefficients, covariance, sensitivities) -> tuple[float, float]:
+    """The gravity model's error in a condition's mean inertia: ``(coupling, shared_sd)``.
+
+    The gravity model ``A sin(theta) + B cos(theta) + C`` is fitted once per condition and
+    subtracted from every fast trial, so its error ``delta`` (covariance ``Sigma``) moves each
+    trial's inertia by ``J_j delta`` (``J_j`` = the trial's ``gravity_sensitivity``) and their
+    mean by ``u = J delta`` (``J`` the mean sensitivity); the gravity moment's error is
+    ``v = g_m delta`` with ``g_m = (A, B, 0) / M_g``. Given ``v``, ``u`` is Gaussian with mean
+    ``coupling * v``, ``coupling = J Sigma g_m' / g_m Sigma g_m'``, and SD
+    ``shared_sd = sqrt(J Sigma J' - coupling * J Sigma g_m')``.
+
+    Parameters
+    ----------
+    coefficients : array_like, shape (3,)
+        ``(A, B, C)`` of the condition's gravity fit.
+    covariance : array_like, shape (3, 3)
+        Their covariance.
+    sensitivities : array_like, shape (n_trials, 3)
+        ``dI/d(A, B, C)`` of each fast trial.
+    """
+    coef = np.asarray(coefficients, float)
+    cov = np.asarray(covariance, float)
+    jac = np.mean(np.atleast_2d(np.asarray(sensitivities, float)), axis=0)
+    moment = math.hypot(coef[0], coef[1])
+    g_m = np.array([coef[0] / moment, coef[1] / moment, 0.0])
+    var_v = float(g_m @ cov @ g_m)
+    cov_uv = float(jac @ cov @ g_m)
+    coupling = cov_uv / var_v if var_v > 0 else 0.0
+    rest = float(jac @ cov @ jac) - coupling * cov_uv
+    return coupling, math.sqrt(max(rest, 0.0))
+
+
 def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
-    """Evidence per condition: Student-t of its trials' inertia, Gaussian of its ``M_g``."""
+    """Evidence per condition: Student-t of its trials' inertia, Gaussian of its ``M_g``.
+
+    The inertia's evidence carries the error of the condition's gravity model
+    (:func:`shared_gravity_error`): a ``coupling`` to the gravity moment and a Gaussian
+    ``shared_sd``.
+    """
     study = processed.study
     out = []
     for label, bodies in study.conditions.items():
@@ -55,12 +100,17 @@ def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
                 r["inertia"], r["inertia_se"], where=f"{where} inertia"
             )
         obs_g = None
+        coupling = 0.0
         if label in processed.gravity:
             g = processed.gravity[label]
             obs_g = Observation.from_mean_se(
                 g.gravity_moment, g.gravity_moment_se, where=f"{where} gravity moment"
             )
-        out.append(Condition(tuple(bodies), obs_i, obs_g, label=label))
+            if obs_i is not None:
+                sens = processed.sensitivity.loc[fast["file"], ["sin", "cos", "offset"]]
+                coupling, shared = shared_gravity_error(g.coefficients, g.covariance, sens)
+                obs_i = obs_i.with_shared_error(shared)
+        out.append(Condition(tuple(bodies), obs_i, obs_g, label=label, coupling=coupling))
     return out
 
 
@@ -70,6 +120,7 @@ def study_model(processed: ProcessedStudy, priors: dict[str, Prior] | None = Non
         priors if priors is not None else study_priors(processed.study),
         condition_evidence(processed),
         gravity=processed.study.gravity,
+        torque_gain_sd=processed.study.calibration.torque_gain_sd,
     )
 
 

@@ -42,9 +42,10 @@ def _observation_summary(model: Model) -> xr.Dataset:
     data = {}
     for obs_name in ("inertia", "gravity_moment"):
         rows = [getattr(c, obs_name) for c in model.conditions]
-        for field in ("center", "scale", "df", "n"):
+        for field in ("center", "scale", "df", "n", "shared_sd"):
             vals = [float(getattr(o, field)) if o else math.nan for o in rows]
             data[f"{obs_name}_{field}"] = ("condition", np.array(vals))
+    data["coupling"] = ("condition", np.array([c.coupling for c in model.conditions], float))
     return xr.Dataset(data, coords={"condition": labels})
 
 
@@ -94,6 +95,10 @@ def build_tree(
         },
         coords=coords,
     )
+    if model.has_gain:
+        posterior["torque_gain"] = xr.DataArray(
+            run.parameters["torque_gain"], dims=("chain", "draw"), attrs={"units": "1"}
+        )
     prior_rng = np.random.default_rng([seed, 2])
     pd_ = model.prior_draws(N_PRIOR_DRAWS, prior_rng)
     prior = xr.Dataset(
@@ -105,6 +110,10 @@ def build_tree(
         },
         coords={"chain": [0], "draw": np.arange(N_PRIOR_DRAWS), "body": bodies},
     )
+    if model.has_gain:
+        prior["torque_gain"] = xr.DataArray(
+            pd_["torque_gain"][None], dims=("chain", "draw"), attrs={"units": "1"}
+        )
     terms = model.log_likelihood_terms(run.chain)
     ll_vars = {}
     for obs_name in ("inertia", "gravity_moment"):
@@ -128,7 +137,11 @@ def build_tree(
         for key in ("nominal", "lower", "upper")
     }
     constant = xr.Dataset(
-        {**box, "gravity": xr.DataArray(model.gravity, attrs={"units": "m s-2"})},
+        {
+            **box,
+            "gravity": xr.DataArray(model.gravity, attrs={"units": "m s-2"}),
+            "torque_gain_sd": xr.DataArray(model.torque_gain_sd, attrs={"units": "1"}),
+        },
         coords={"body": bodies, "parameter": list(PARAMETERS)},
     ).merge(_observation_summary(model))
     attrs = {
@@ -164,7 +177,12 @@ def build_tree(
         ),
         "inputs": inputs_json(inputs or {}),
         "provenance": inputs_json(provenance or {}),
-        "sampled_coordinates": "log(m x), log(I) per body; psi = atan(x / rho) drawn exactly",
+        "sampled_coordinates": (
+            "log(m x), log(I) per body (observed scale: times the torque gain), then log gain "
+            "when torque_gain_sd > 0; psi = atan(x / rho) drawn exactly"
+            if model.has_gain
+            else "log(m x), log(I) per body; psi = atan(x / rho) drawn exactly"
+        ),
     }
     return xr.DataTree.from_dict(
         {
@@ -220,6 +238,7 @@ def fit_body(
     gravity_moment_sd: float | None = None,
     gravity_moment_n: int | None = None,
     gravity: float = GRAVITY,
+    torque_gain_sd: float = 0.0,
     seed: int = 0,
     settings: SamplerSettings | None = None,
 ) -> Posterior:
@@ -237,6 +256,9 @@ def fit_body(
         Gravitational moment ``m g x`` (N m), given the same ways.
     gravity : float
         m/s^2.
+    torque_gain_sd : float
+        Relative SD of the torque channel's gain (calibration), carried as a nuisance
+        parameter; 0 leaves it out (the result says so).
     seed : int
         Seed of every random draw.
 
@@ -250,7 +272,12 @@ def fit_body(
     obs_g = evidence_from_numbers(
         "gravity_moment", gravity_moment, gravity_moment_se, gravity_moment_sd, gravity_moment_n
     )
-    model = Model({prior.name: prior}, [Condition((prior.name,), obs_i, obs_g)], gravity=gravity)
+    model = Model(
+        {prior.name: prior},
+        [Condition((prior.name,), obs_i, obs_g)],
+        gravity=gravity,
+        torque_gain_sd=torque_gain_sd,
+    )
     inputs = {
         "prior": prior.name,
         "inertia": {
@@ -266,5 +293,6 @@ def fit_body(
             "values": list(obs_g.values),
         },
         "gravity": gravity,
+        "torque_gain_sd": torque_gain_sd,
     }
     return fit(model, seed=seed, settings=settings, inputs=inputs)

@@ -14,10 +14,23 @@ So the posterior factorises exactly: ``p(a, b | data) ~ L(a, b) |Psi(a, b)| / a`
 with emcee (in ``log a, log b``, where it is close to Gaussian and axis-aligned), and ``psi``
 is drawn exactly, uniformly from ``Psi(a, b)``, for every kept draw. The data-identified part and
 the prior-only part of the problem are separate coordinates.
+
+Systematic errors
+-----------------
+* A condition's gravity model is subtracted from all its fast trials: its error moves their
+  inertia together and correlates with the error of the condition's ``M_g``. Given the gravity
+  moment's error ``M_g_obs - M_g``, the inertia's shifts by ``coupling * (M_g_obs - M_g)`` and
+  the rest is a Gaussian of SD ``inertia.shared_sd`` (:class:`Condition`).
+* A torque gain ``gamma`` (the torque channel's calibration) multiplies every observed ``I``
+  and ``M_g`` of a study. With ``torque_gain_sd > 0`` the sampled ``(log a, log b)`` are
+  *observed-scale* values, ``gamma`` times the true ones (what the data identify), and
+  ``log gamma ~ N(0, torque_gain_sd^2)`` is one more coordinate; the true values are the
+  observed ones over ``gamma``, so the box prior is evaluated at ``z - log gamma``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -137,16 +150,32 @@ class Condition:
         Evidence on the total gravitational moment (N m).
     label : str
         Defaults to the body names joined by ``+``.
+    coupling : float
+        ``dI/dM_g`` of the shared gravity-model error (kg m^2 per N m): the inertia evidence
+        is evaluated at ``I + coupling * (M_g_obs - M_g)``, ``M_g_obs`` the gravity moment's
+        centre. 0 when the errors are independent.
     """
 
     bodies: tuple[str, ...]
     inertia: Observation | None = None
     gravity_moment: Observation | None = None
     label: str = ""
+    coupling: float = 0.0
 
     def __post_init__(self):
         if not self.label:
             object.__setattr__(self, "label", "+".join(self.bodies))
+        if not math.isfinite(self.coupling):
+            raise InputError(f"condition '{self.label}': coupling must be finite")
+        if self.coupling and self.gravity_moment is None:
+            raise InputError(f"condition '{self.label}': coupling needs a gravity moment")
+
+    def inertia_at(self, inertia, gravity_moment):
+        """Where the inertia evidence is evaluated for true totals ``I`` and ``M_g`` (arrays)."""
+        if not self.coupling:
+            return inertia
+        assert self.gravity_moment is not None
+        return inertia + self.coupling * (self.gravity_moment.center - gravity_moment)
 
 
 class Model:
@@ -160,6 +189,9 @@ class Model:
         What was measured; every body must appear in at least one condition.
     gravity : float
         Gravitational acceleration (m/s^2).
+    torque_gain_sd : float
+        SD of the log torque gain (relative SD of the gain; 0: not modelled). See the module
+        docstring, "Systematic errors".
     """
 
     def __init__(
@@ -168,11 +200,17 @@ class Model:
         conditions: Sequence[Condition],
         *,
         gravity: float = GRAVITY,
+        torque_gain_sd: float = 0.0,
     ) -> None:
         self.priors = dict(priors)
         self.bodies = tuple(self.priors)
         self.conditions = tuple(conditions)
         self.gravity = float(gravity)
+        if not (math.isfinite(torque_gain_sd) and 0 <= torque_gain_sd < 0.5):
+            raise InputError(
+                f"torque_gain_sd: expected a relative SD in [0, 0.5), got {torque_gain_sd!r}"
+            )
+        self.torque_gain_sd = float(torque_gain_sd)
         if not self.conditions:
             raise InputError("model: no conditions (nothing was measured)")
         labels = [c.label for c in self.conditions]
@@ -196,23 +234,62 @@ class Model:
         ]
 
     @property
+    def has_gain(self) -> bool:
+        """Whether the torque gain is a coordinate (``torque_gain_sd > 0``)."""
+        return self.torque_gain_sd > 0
+
+    @property
     def ndim(self) -> int:
-        """Number of sampled coordinates: ``(log a, log b)`` per body."""
-        return 2 * len(self.bodies)
+        """Number of sampled coordinates: ``(log a, log b)`` per body, then ``log gain``."""
+        return 2 * len(self.bodies) + int(self.has_gain)
 
     def split(self, z):
-        """Sampled coordinates ``(..., 2K)`` → ``a`` (kg m) and ``b`` (kg m^2), each ``(..., K)``."""
+        """Sampled coordinates → observed-scale ``a`` (kg m) and ``b`` (kg m^2), ``(..., K)``.
+
+        Without a torque gain these are the bodies' own values.
+        """
         z = np.asarray(z)
-        return np.exp(z[..., 0::2]), np.exp(z[..., 1::2])
+        k2 = 2 * len(self.bodies)
+        return np.exp(z[..., 0:k2:2]), np.exp(z[..., 1:k2:2])
+
+    def log_gain(self, z):
+        """The ``log gain`` coordinate, ``(...,)``; zeros without a torque gain."""
+        z = np.asarray(z)
+        return z[..., -1] if self.has_gain else np.zeros(np.shape(z)[:-1])
+
+    def true_identified(self, z):
+        """The bodies' true ``a`` and ``b``: observed-scale values over the gain."""
+        a, b = self.split(z)
+        if not self.has_gain:
+            return a, b
+        inv = np.exp(-self.log_gain(z))[..., None]
+        return a * inv, b * inv
+
+    def coordinates(self, first_moment, inertia, gain=None):
+        """Sampled coordinates of true ``a``, ``b`` (``(..., K)``) and ``gain`` (``(...,)``)."""
+        a = np.asarray(first_moment, float)
+        b = np.asarray(inertia, float)
+        lead = np.shape(a)[:-1]
+        z = np.empty((*lead, self.ndim))
+        log_g = np.zeros(lead) if gain is None else np.log(np.asarray(gain, float))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z[..., 0 : 2 * len(self.bodies) : 2] = np.log(a) + log_g[..., None]
+            z[..., 1 : 2 * len(self.bodies) : 2] = np.log(b) + log_g[..., None]
+        if self.has_gain:
+            z[..., -1] = log_g
+        return z
 
     def log_prior(self, z):
-        """Log density of the marginal prior of ``(log a, log b)``, up to a constant."""
-        a, b = self.split(z)
+        """Log density of the marginal prior of the sampled coordinates, up to a constant."""
+        a, b = self.true_identified(z)
         out = np.zeros(np.shape(a)[:-1])
         for k, body in enumerate(self.bodies):
             with np.errstate(divide="ignore"):
                 out = out + np.log(feasible_measure(a[..., k], b[..., k], self.priors[body]))
-        return out + np.log(b).sum(-1)
+        out = out + np.log(b).sum(-1)
+        if self.has_gain:
+            out = out - 0.5 * (self.log_gain(z) / self.torque_gain_sd) ** 2
+        return out
 
     def log_likelihood_terms(self, z) -> dict[str, np.ndarray]:
         """Pointwise log-likelihood: ``inertia`` and ``gravity_moment``, each ``(..., n_obs)``."""
@@ -220,7 +297,12 @@ class Model:
         total_a = a @ self.membership.T
         total_b = b @ self.membership.T
         lead = np.shape(a)[:-1]
-        inertia = [obs.logpdf(total_b[..., ci]) for ci, obs in self._inertia]
+        inertia = [
+            obs.logpdf(
+                self.conditions[ci].inertia_at(total_b[..., ci], self.gravity * total_a[..., ci])
+            )
+            for ci, obs in self._inertia
+        ]
         grav = [obs.logpdf(self.gravity * total_a[..., ci]) for ci, obs in self._gravity]
         return {
             "inertia": np.stack(inertia, -1) if inertia else np.zeros((*lead, 0)),
@@ -242,23 +324,27 @@ class Model:
         """Complete sampled coordinates with exact angle draws → physical parameters.
 
         Returns a dict with ``mass``, ``com_distance``, ``radius_of_gyration``, ``inertia`` and
-        ``gravity_moment``, each of shape ``(..., K)``.
+        ``gravity_moment``, each of shape ``(..., K)``, and with a torque gain ``torque_gain``
+        of shape ``(...,)``.
         """
-        a, b = self.split(z)
+        a, b = self.true_identified(z)
         psi = np.empty_like(a)
         for k, body in enumerate(self.bodies):
             psi[..., k] = draw_angles(a[..., k], b[..., k], self.priors[body], rng)
         mass, x, rho = physics.parameters_from_identified(a, b, psi)
-        return {
+        out = {
             "mass": mass,
             "com_distance": x,
             "radius_of_gyration": rho,
             "inertia": b,
             "gravity_moment": self.gravity * a,
         }
+        if self.has_gain:
+            out["torque_gain"] = np.exp(self.log_gain(z))
+        return out
 
     def prior_draws(self, size: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-        """Draws from the prior boxes, same layout as :meth:`parameters` with ``(size, K)``."""
+        """Draws from the prior, same layout as :meth:`parameters` with ``(size, K)``."""
         cols: dict[str, list] = {p: [] for p in (*PARAMETERS, "inertia", "gravity_moment")}
         for body in self.bodies:
             d = self.priors[body].sample(size, rng)
@@ -267,7 +353,10 @@ class Model:
             m, x, rho = d["mass"], d["com_distance"], d["radius_of_gyration"]
             cols["inertia"].append(physics.inertia(m, rho, x))
             cols["gravity_moment"].append(physics.gravity_moment(m, x, self.gravity))
-        return {k: np.stack(v, -1) for k, v in cols.items()}
+        out = {k: np.stack(v, -1) for k, v in cols.items()}
+        if self.has_gain:
+            out["torque_gain"] = np.exp(self.torque_gain_sd * rng.standard_normal(size))
+        return out
 
     def check_feasible(self) -> None:
         """Fail early, and say why, when no point of a body's box can explain its evidence.
@@ -285,6 +374,12 @@ class Model:
             b0 = cond.inertia.center
             da = cond.gravity_moment.quantile_halfwidth() / self.gravity
             db = cond.inertia.quantile_halfwidth()
+            if self.has_gain:  # the true values are the observed ones over a gain near 1
+                da += 5 * self.torque_gain_sd * a0
+            db += (
+                5 * self.torque_gain_sd * cond.inertia.center
+                + abs(cond.coupling) * da * self.gravity
+            )
             aa, bb = np.meshgrid(
                 np.linspace(max(a0 - da, 1e-9 * a0), a0 + da, 61),
                 np.linspace(max(b0 - db, 1e-9 * b0), b0 + db, 61),

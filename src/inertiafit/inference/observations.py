@@ -6,19 +6,26 @@ with ``n - 1`` degrees of freedom, location ``mean(y)`` and scale ``sd(y)/sqrt(n
 reported with its SD and ``n`` carries exactly the same information (they are sufficient
 statistics), so it gives the same Student-t. A single value with a known standard error (a
 quasi-static fit, or a value quoted with its SE) gives a Gaussian.
+
+An error shared by every trial of the observable (the gravity model subtracted from all fast
+trials of a condition) does not show in their scatter: it is added as an independent Gaussian
+of known SD ``shared_sd`` (:meth:`Observation.with_shared_error`), and the likelihood is the
+Student-t convolved with it (:class:`inertiafit.stats.SmearedStudentT`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from inertiafit._checks import check_positive
 from inertiafit.errors import InputError
-from inertiafit.stats import student_t_logpdf
+from inertiafit.stats import SmearedStudentT
 
 __all__ = ["Observation"]
 
@@ -39,6 +46,8 @@ class Observation:
         Number of trials behind the value (1 for a single value with its SE).
     values : tuple of float
         The trial values when they were given one by one, else empty.
+    shared_sd : float
+        SD of a Gaussian error common to every trial (0: none), added to the Student-t.
     """
 
     center: float
@@ -46,6 +55,7 @@ class Observation:
     df: float
     n: int
     values: tuple[float, ...] = ()
+    shared_sd: float = 0.0
 
     @classmethod
     def from_values(cls, values: Sequence[float], *, se: float | None = None, where="values"):
@@ -92,6 +102,28 @@ class Observation:
         n = int(n)
         return cls(m, s / math.sqrt(n), n - 1.0, n)
 
+    def with_shared_error(self, sd: float) -> Observation:
+        """The same evidence with a Gaussian error of SD ``sd`` common to all its trials."""
+        if not (math.isfinite(sd) and sd >= 0):
+            raise InputError(f"shared error: expected a finite SD >= 0, got {sd!r}")
+        return dataclasses.replace(self, shared_sd=float(sd))
+
+    def scaled(self, factor: float) -> Observation:
+        """The evidence with every scale (``scale``, ``shared_sd``) multiplied by ``factor``."""
+        return dataclasses.replace(
+            self, scale=self.scale * factor, shared_sd=self.shared_sd * factor
+        )
+
+    @cached_property
+    def density(self) -> SmearedStudentT:
+        """The likelihood as a distribution of the observed value around ``mu``."""
+        return SmearedStudentT(self.center, self.scale, self.df, self.shared_sd)
+
+    @property
+    def total_scale(self) -> float:
+        """``sqrt(scale^2 + shared_sd^2)``."""
+        return math.hypot(self.scale, self.shared_sd)
+
     @property
     def is_gaussian(self) -> bool:
         """Whether the likelihood is Gaussian (a value with a known SE)."""
@@ -100,19 +132,27 @@ class Observation:
     def logpdf(self, mu):
         """Log-likelihood of true values ``mu`` (array), normalised as a density in ``mu``.
 
-        The Student-t (or Gaussian) density of :func:`inertiafit.stats.student_t_logpdf`.
+        The Student-t (or Gaussian) density, convolved with the shared error's Gaussian
+        (:class:`inertiafit.stats.SmearedStudentT`; symmetric, so the same in ``mu``).
         """
-        return student_t_logpdf(mu, self.center, self.scale, self.df)
+        return self.density.logpdf(mu)
+
+    def draws(self, size: tuple[int, ...], rng: np.random.Generator) -> np.ndarray:
+        """Draws of ``mu`` from the likelihood taken as a density in ``mu``."""
+        return self.density.draws(size, rng)
 
     def quantile_halfwidth(self, tail: float = 1e-4) -> float:
         """Half-width around ``center`` that holds all but ``tail`` of the likelihood's mass."""
         from scipy import stats
 
+        shared = float(stats.norm.isf(tail / 2) * self.shared_sd)
         if self.is_gaussian:
-            return float(stats.norm.isf(tail / 2) * self.scale)
-        return float(stats.t.isf(tail / 2, self.df) * self.scale)
+            return float(stats.norm.isf(tail / 2) * self.scale) + shared
+        return float(stats.t.isf(tail / 2, self.df) * self.scale) + shared
 
     def describe(self, unit: str = "") -> str:
         """Short text such as ``0.216 +- 0.0031 kg m^2 (Student-t, 30 trials)``."""
         kind = "Gaussian" if self.is_gaussian else f"Student-t, {self.n} trials"
+        if self.shared_sd:
+            kind += f", shared error ± {self.shared_sd:.2g}"
         return f"{self.center:.4g} ± {self.scale:.2g} {unit} ({kind})".replace("  ", " ")

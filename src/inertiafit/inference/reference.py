@@ -21,7 +21,7 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.physics import GRAVITY
 
-__all__ = ["ReferencePosterior", "reference_posterior", "star_reference"]
+__all__ = ["ReferencePosterior", "gain_reference", "reference_posterior", "star_reference"]
 
 
 @dataclass(frozen=True)
@@ -89,6 +89,7 @@ def reference_posterior(
     gravity_moment: Observation,
     *,
     gravity: float = GRAVITY,
+    coupling: float = 0.0,
     n_identified: int = 120,
     n_mass: int = 400,
     tail: float = 1e-7,
@@ -103,6 +104,9 @@ def reference_posterior(
         Evidence on ``I`` (kg m^2) and ``M_g`` (N m).
     gravity : float
         m/s^2.
+    coupling : float
+        The condition's ``coupling`` (:class:`~inertiafit.inference.model.Condition`): the
+        inertia evidence is evaluated at ``I + coupling * (M_g_obs - M_g)``.
     n_identified, n_mass : int
         Grid points along ``a`` and ``b`` each, and along ``m``.
     tail : float
@@ -115,7 +119,7 @@ def reference_posterior(
     lo, up = prior.lower, prior.upper
     a_rng, b_rng = _identified_support(prior)
     ca, ha = gravity_moment.center / gravity, gravity_moment.quantile_halfwidth(tail) / gravity
-    cb, hb = inertia.center, inertia.quantile_halfwidth(tail)
+    cb, hb = inertia.center, inertia.quantile_halfwidth(tail) + abs(coupling) * ha * gravity
     a_edges = _edges(ca, ha, a_rng, n_identified)
     b_edges = _edges(cb, hb, b_rng, n_identified)
     a, b = _midpoints(a_edges), _midpoints(b_edges)
@@ -125,7 +129,10 @@ def reference_posterior(
     m_edges = np.linspace(m_min, m_max, n_mass + 1)
     m = 0.5 * (m_edges[1:] + m_edges[:-1])
 
-    log_l = inertia.logpdf(b)[None, :] + gravity_moment.logpdf(gravity * a)[:, None]
+    shift = coupling * (gravity_moment.center - gravity * a)  # (a,)
+    log_l = (
+        inertia.logpdf(b[None, :] + shift[:, None]) + gravity_moment.logpdf(gravity * a)[:, None]
+    )
     like = np.exp(log_l - log_l.max())  # (a, b)
     M, A, B = np.meshgrid(m, a, b, indexing="ij")
     x = A / M
@@ -200,6 +207,8 @@ def star_reference(
         star = star_structure(model)
     if star is None or len(star.shared) != 1 or not star.shared_conditions:
         raise ValueError("star_reference: needs one shared body measured alone, and leaves")
+    if model.has_gain or any(c.coupling for c in model.conditions):
+        raise ValueError("star_reference: no torque gain or coupled evidence (see gain_reference)")
     g = model.gravity
     shared = model.bodies[star.shared[0]]
     own = [model.conditions[ci] for ci in star.shared_conditions]
@@ -279,3 +288,80 @@ def star_reference(
             weights = np.repeat(weights / n_angle, n_angle)
         out[name] = ReferencePosterior(values=values, weights=weights)
     return out
+
+
+def gain_reference(
+    prior: Prior,
+    conditions,
+    *,
+    torque_gain_sd: float,
+    gravity: float = GRAVITY,
+    n_grid: int = 120,
+    n_gain: int = 41,
+    n_angle: int = 16,
+    tail: float = 1e-7,
+) -> ReferencePosterior:
+    """Posterior of one body with a torque gain, by quadrature on a grid in ``(a', b', log g)``.
+
+    The evidence depends on the observed-scale values ``(a', b') = gain * (a, b)`` only, so the
+    grid is laid over them (where the evidence is) and over ``log gain`` (its Normal prior,
+    ``+-6`` SDs); each point stands for the true ``(a, b) = (a', b') / gain`` with weight
+    ``L(a', b') N(log gain) pi(a, b) / gain^2`` (``pi = |Psi| / a`` the box's density in
+    ``(a, b)``, ``1 / gain^2`` the Jacobian), split over ``n_angle`` angles uniform on
+    ``Psi(a, b)``. The evidence is computed here from the observations, not by the model.
+
+    Parameters
+    ----------
+    prior : Prior
+        The body's box.
+    conditions : sequence of Condition
+        Conditions holding this body alone (both observables; ``coupling`` honoured).
+    torque_gain_sd : float
+        SD of ``log gain``.
+    gravity : float
+        m/s^2.
+    n_grid, n_gain, n_angle : int
+        Grid points along ``a'`` and ``b'`` each, along ``log gain``, and angles per point.
+    tail : float
+        Evidence mass left outside the grid.
+    """
+    g = gravity
+    tight = min(conditions, key=lambda c: c.inertia.scale)
+    ca, ha = tight.gravity_moment.center / g, tight.gravity_moment.quantile_halfwidth(tail) / g
+    cb = tight.inertia.center
+    hb = tight.inertia.quantile_halfwidth(tail) + abs(tight.coupling) * ha * g
+    a_obs = np.linspace(ca - ha, ca + ha, n_grid)
+    b_obs = np.linspace(cb - hb, cb + hb, n_grid)
+    log_l = np.zeros((n_grid, n_grid))
+    for c in conditions:
+        shift = c.coupling * (c.gravity_moment.center - g * a_obs)
+        log_l = log_l + c.gravity_moment.logpdf(g * a_obs)[:, None]
+        log_l = log_l + c.inertia.logpdf(b_obs[None, :] + shift[:, None])
+    ell = np.linspace(-6 * torque_gain_sd, 6 * torque_gain_sd, n_gain)
+    A, B, ELL = np.meshgrid(a_obs, b_obs, ell, indexing="ij")
+    a, b = A * np.exp(-ELL), B * np.exp(-ELL)
+    with np.errstate(divide="ignore"):
+        log_w = (
+            log_l[:, :, None]
+            - 0.5 * (ELL / torque_gain_sd) ** 2
+            + np.log(feasible_measure(a, b, prior))
+            - np.log(a)
+            - 2 * ELL
+        )
+    keep = np.isfinite(log_w)
+    w = np.exp(log_w[keep] - log_w[keep].max())
+    aa = np.repeat(a[keep][:, None], n_angle, 1)
+    bb = np.repeat(b[keep][:, None], n_angle, 1)
+    psi = angles_at(aa, bb, prior, (np.arange(n_angle) + 0.5) / n_angle)
+    mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
+    gain = np.repeat(np.exp(ELL[keep])[:, None], n_angle, 1)
+    weights = np.repeat(w / w.sum() / n_angle, n_angle)
+    values = {
+        "mass": mass.ravel(),
+        "com_distance": x.ravel(),
+        "radius_of_gyration": rho.ravel(),
+        "inertia": bb.ravel(),
+        "gravity_moment": g * aa.ravel(),
+        "torque_gain": gain.ravel(),
+    }
+    return ReferencePosterior(values=values, weights=weights)

@@ -32,7 +32,13 @@ import numpy as np
 from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.inference.blocked import BlockedGibbs, Star, star_structure
 from inertiafit.inference.model import Model
-from inertiafit.inference.moves import MOVES, emcee_moves, laplace_fit, proposal_df
+from inertiafit.inference.moves import (
+    MOVES,
+    IndependenceMove,
+    emcee_moves,
+    laplace_fit,
+    proposal_df,
+)
 
 __all__ = ["SAMPLERS", "SamplerRun", "SamplerSettings", "resolve_moves", "sample"]
 
@@ -154,8 +160,11 @@ def _checks(params: dict[str, np.ndarray]) -> tuple[float, float]:
     """Smallest bulk ESS and largest R-hat over every reported quantity, in one pass each."""
     from arviz_stats.base import array_stats
 
-    # (walkers, draws, bodies) per quantity -> (quantities * bodies, chains, draws)
-    stack = np.concatenate([np.moveaxis(v, -1, 0) for v in params.values()])
+    # (walkers, draws, bodies) per quantity -> (quantities * bodies, chains, draws); the
+    # torque gain is (walkers, draws)
+    stack = np.concatenate(
+        [np.moveaxis(v, -1, 0) if v.ndim == 3 else v[None] for v in params.values()]
+    )
     ess = array_stats.ess(stack, chain_axis=-2, draw_axis=-1, method="bulk")
     rhat = array_stats.rhat(stack, chain_axis=-2, draw_axis=-1)
     return float(np.min(ess)), float(np.max(rhat))
@@ -170,7 +179,9 @@ def resolve_moves(model: Model, moves: str) -> str:
         )
     if moves not in ("auto", "blocked"):
         return moves
-    if star_structure(model) is None:
+    star = star_structure(model)
+    # the torque gain moves with the shared bodies: without them, the joint sampler
+    if star is None or (model.has_gain and not star.shared):
         if moves == "blocked":
             raise InputError(
                 "sampler: moves 'blocked' needs bodies mounted in one condition each beside "
@@ -200,6 +211,8 @@ class _EmceeChains:
         )
         # emcee draws from a copy of numpy's global RandomState taken at construction: seed it.
         self.sampler.random_state = np.random.RandomState(seed).get_state()
+        self.tuned = moves != "independent"
+        self.warmup = 0
 
     def run(self, steps: int) -> None:
         self.state = self.sampler.run_mcmc(self.state, steps, progress=False)
@@ -217,11 +230,34 @@ class _EmceeChains:
         return np.swapaxes(self.sampler.get_log_prob()[burn:], 0, 1)
 
     def acceptance(self) -> dict[str, float]:
-        return {"acceptance": float(np.mean(self.sampler.acceptance_fraction))}
+        return {
+            "acceptance": float(np.mean(self.sampler.acceptance_fraction)),
+            "warmup": float(self.warmup),
+        }
 
-    def warm_up(self, kept: np.ndarray) -> bool:  # noqa: ARG002 - the blocked chains' signature
-        """Nothing to re-fit: the joint moves keep their proposal (see :class:`_BlockedChains`)."""
-        return False
+    def warm_up(self, kept: np.ndarray) -> bool:
+        """Once: re-fit the independence proposal to ``kept`` draws and drop the chain so far.
+
+        The Laplace fit can be far too narrow where a box edge cuts the posterior (measured:
+        a leaf's ``log I`` proposed with a third of its posterior SD, tau ~ 200 steps and
+        tails under-sampled). As for :class:`_BlockedChains`, the first slow check re-centres
+        the proposal on the draws so far and matches their covariance (fixed from then on);
+        those steps become warm-up. Other move sets have nothing to re-fit.
+        """
+        if self.tuned:
+            return False
+        self.tuned = True
+        independence = [m for m in self.sampler._moves if isinstance(m, IndependenceMove)]
+        flat = kept.reshape(-1, kept.shape[-1])
+        if not independence or len(flat) <= flat.shape[1] or not np.all(np.isfinite(flat)):
+            return False
+        try:
+            independence[0].refit(flat.mean(0), np.atleast_2d(np.cov(flat, rowvar=False)))
+        except np.linalg.LinAlgError:
+            return False
+        self.warmup += self.n_steps
+        self.sampler.reset()
+        return True
 
 
 class _BlockedChains:
@@ -271,7 +307,7 @@ class _BlockedChains:
         if self.tuned:
             return False
         self.tuned = True
-        shared = [2 * j + c for j in self.gibbs.star.shared for c in (0, 1)]
+        shared = BlockedGibbs.shared_columns(self.model, self.gibbs.star)
         if not self.gibbs.refit_shared_proposal(kept[..., shared]):
             return False
         self.gibbs.reset_acceptance()
@@ -358,8 +394,8 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
             # ESS and R-hat of every quantity cost more than the steps: wait for 50 tau.
             diag = {"ess_bulk_min": math.nan, "r_hat_max": math.nan, "tau_max": tau_max}
             _progress(show, chains.n_steps, s.max_steps, tau_max, math.nan, t0)
-            # Slow at the first check: the blocked sampler re-fits its proposal to these draws
-            # and the chain so far becomes warm-up (once; the joint sampler goes on as it is).
+            # Slow at the first check: the sampler re-fits its independence proposal to these
+            # draws and the chain so far becomes warm-up (once).
             chains.warm_up(kept)
             continue
         params = model.parameters(kept, np.random.default_rng([seed, 1]))

@@ -29,6 +29,12 @@ What "the model's own likelihood" is
   simulated through its sufficient statistics (``ybar ~ N(mu, sigma^2/n)``,
   ``(n-1) s^2 / sigma^2 ~ chi^2_{n-1}``), ``values`` trial by trial.
 
+Systematic errors (:class:`Design` ``torque_gain_sd``, ``shared``, ``coupling``): a gain
+``gamma = exp(torque_gain_sd z)`` multiplies every observed value (its truth is ranked as
+``calibration / torque_gain``); with ``coupling`` or ``shared`` (``mean_se`` evidence only) each
+condition's gravity moment is off by ``v ~ N(0, se_g^2)`` and its inertia by
+``coupling v + shared se_i z'``, as the model's coupled evidence says.
+
 Every noise SD is at most ``noise`` (default 0.15) times the smallest value the observable
 can take inside the boxes, so a trial value is positive (more than 6.6 SDs from zero).
 
@@ -124,6 +130,12 @@ class Design:
         Largest over smallest trial SD; SDs are drawn log-uniformly in between.
     gravity : float
         m/s^2.
+    torque_gain_sd : float
+        SD of the log torque gain of every simulated study (0: none).
+    shared : float
+        SD of the inertia's shared error, in units of its standard error (``mean_se`` only).
+    coupling : float
+        ``Condition.coupling`` of every condition, kg m^2 per N m (``mean_se`` only).
     """
 
     priors: Mapping[str, Prior]
@@ -133,6 +145,9 @@ class Design:
     noise: float = 0.15
     noise_ratio: float = 30.0
     gravity: float = GRAVITY
+    torque_gain_sd: float = 0.0
+    shared: float = 0.0
+    coupling: float = 0.0
 
     def __post_init__(self) -> None:
         if self.evidence not in EVIDENCE:
@@ -149,13 +164,22 @@ class Design:
             raise InputError(f"noise: expected a fraction in (0, 0.15], got {self.noise}")
         if not check_positive(self.noise_ratio, "noise_ratio") > 1:
             raise InputError(f"noise_ratio: expected a number > 1, got {self.noise_ratio}")
+        if (self.shared or self.coupling) and self.evidence != "mean_se":
+            raise InputError("shared, coupling: need evidence 'mean_se' (a Gaussian M_g)")
+        if not (0 <= self.torque_gain_sd < 0.5 and self.shared >= 0):
+            raise InputError("torque_gain_sd: expected [0, 0.5); shared: expected >= 0")
 
     @property
     def label(self) -> str:
         """Short name: bodies and evidence (``1 body, values`` or ``attachment + 3, mean_se``)."""
         n = len(self.priors)
         shape = "1 body" if n == 1 else f"attachment + {n - 1}"
-        return f"{shape}, {self.evidence}"
+        extra = ""
+        if self.shared or self.coupling:
+            extra += ", coupled"
+        if self.torque_gain_sd:
+            extra += f", gain {100 * self.torque_gain_sd:g}%"
+        return f"{shape}, {self.evidence}{extra}"
 
     def noise_range(self, bodies: Sequence[str], observable: str) -> tuple[float, float]:
         """``(sigma_lo, sigma_hi)`` of one trial of ``observable`` on these bodies."""
@@ -204,7 +228,8 @@ class Simulation:
     Attributes
     ----------
     truth : dict
-        ``truth[body][quantity]`` for every quantity of :data:`~inertiafit.physics.REPORTED`.
+        ``truth[body][quantity]`` for every quantity of :data:`~inertiafit.physics.REPORTED`,
+        and ``truth["calibration"]["torque_gain"]`` with a torque gain.
     conditions : tuple of Condition
         The simulated evidence, one condition per entry of ``design.conditions``.
     noise_ranges : dict
@@ -218,24 +243,36 @@ class Simulation:
     noise_ranges: dict[tuple[str, str], tuple[float, float]]
     design: Design
 
-    def model(self, scale: float = 1.0) -> Model:
+    def model(self, scale: float = 1.0, *, systematics: bool = True) -> Model:
         """The model fitted to this study.
 
         ``scale`` multiplies every observation's scale: 1 is the right likelihood, 0.5 or 2
-        a wrong one (the negative control).
+        a wrong one (the negative control). ``systematics=False`` leaves out the torque gain,
+        the coupling and the shared error (another negative control).
         """
         check_positive(scale, "scale")
 
         def scaled(o: Observation | None) -> Observation | None:
-            return (
-                None if o is None else Observation(o.center, o.scale * scale, o.df, o.n, o.values)
-            )
+            if o is None:
+                return None
+            return o.scaled(scale) if systematics else o.with_shared_error(0.0).scaled(scale)
 
         conditions = [
-            Condition(c.bodies, scaled(c.inertia), scaled(c.gravity_moment), c.label)
+            Condition(
+                c.bodies,
+                scaled(c.inertia),
+                scaled(c.gravity_moment),
+                c.label,
+                c.coupling if systematics else 0.0,
+            )
             for c in self.conditions
         ]
-        return Model(self.design.priors, conditions, gravity=self.design.gravity)
+        return Model(
+            self.design.priors,
+            conditions,
+            gravity=self.design.gravity,
+            torque_gain_sd=self.design.torque_gain_sd if systematics else 0.0,
+        )
 
 
 def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
@@ -247,14 +284,20 @@ def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
         m, x, rho = d["mass"], d["com_distance"], d["radius_of_gyration"]
         d["inertia"] = float(physics.inertia(m, rho, x))
         d["gravity_moment"] = float(physics.gravity_moment(m, x, g))
-        truth[body] = d
+        truth[body] = {q: d[q] for q in REPORTED}
+    gain = 1.0
+    if design.torque_gain_sd:
+        gain = math.exp(design.torque_gain_sd * rng.standard_normal())
+        truth["calibration"] = {"torque_gain": gain}
     n = int(design.n_trials)
     conditions, ranges = [], {}
     for bodies in design.conditions:
         label = "+".join(bodies)
         obs = {}
-        for name in OBSERVABLES:
-            mu = sum(truth[b][name] for b in bodies)
+        error_g = 0.0
+        # coupled: the gravity moment first, the inertia's error follows it
+        for name in OBSERVABLES[::-1] if design.coupling else OBSERVABLES:
+            mu = gain * sum(truth[b][name] for b in bodies)
             lo, hi = design.noise_range(bodies, name)
             sigma = math.exp(rng.uniform(math.log(lo), math.log(hi)))
             where = f"{label} {name}"
@@ -267,12 +310,20 @@ def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
                 obs[name] = Observation.from_mean_sd(mean, sd, n, where=where)
             else:
                 se = sigma / math.sqrt(n)
-                obs[name] = Observation.from_mean_se(
-                    mu + se * rng.standard_normal(), se, where=where
-                )
+                error = se * rng.standard_normal()
+                shared = design.shared * se if name == "inertia" else 0.0
+                if name == "gravity_moment":
+                    error_g = error
+                else:
+                    error += design.coupling * error_g + shared * rng.standard_normal()
+                obs[name] = Observation.from_mean_se(mu + error, se, where=where)
+                if shared:
+                    obs[name] = obs[name].with_shared_error(shared)
             if design.evidence != "mean_se":
                 ranges[(label, name)] = (lo, hi)
-        conditions.append(Condition(tuple(bodies), obs["inertia"], obs["gravity_moment"], label))
+        conditions.append(
+            Condition(tuple(bodies), obs["inertia"], obs["gravity_moment"], label, design.coupling)
+        )
     return Simulation(truth, tuple(conditions), ranges, design)
 
 
@@ -296,6 +347,8 @@ def truncation_log_weights(
             obs: Observation = getattr(cond, name)
             n = obs.n
             mu = sum(np.asarray(draws[b][name]) for b in cond.bodies)
+            if "calibration" in draws:  # the observations are of the gain times the truth
+                mu = mu * np.asarray(draws["calibration"]["torque_gain"])
             sd2 = n * obs.scale**2  # s^2
             q = (n - 1) * sd2 + n * (obs.center - mu) ** 2
             small, large = q / (2 * hi * hi), q / (2 * lo * lo)
@@ -342,11 +395,13 @@ def sbc_ranks(
     ``draws[body][quantity]`` are the kept draws (any shape, one per body and quantity, same
     size); ``n_draws`` of them are taken with replacement, with probabilities
     ``exp(log_weights)`` (uniform when ``None``). Returns two arrays in the order
-    ``[(body, q) for body in truth for q in REPORTED]``: ranks in ``0..n_draws`` and booleans.
+    ``[(body, q) for body in truth for q in truth[body]]``: ranks in ``0..n_draws`` and
+    booleans.
     """
     check_probability(hdi_prob, "hdi_prob")
-    flat = {b: {q: np.ravel(draws[b][q]) for q in REPORTED} for b in truth}
-    size = len(flat[next(iter(truth))][REPORTED[0]])
+    flat = {b: {q: np.ravel(draws[b][q]) for q in truth[b]} for b in truth}
+    first = next(iter(truth))
+    size = len(flat[first][next(iter(truth[first]))])
     if log_weights is None:
         weights = np.full(size, 1.0 / size)
     else:
@@ -355,7 +410,7 @@ def sbc_ranks(
     pick = rng.choice(size, size=n_draws, replace=True, p=weights)
     ranks, inside = [], []
     for b in truth:
-        for q in REPORTED:
+        for q in truth[b]:
             x = flat[b][q]
             ranks.append(int(np.sum(x[pick] < truth[b][q])))
             inside.append(hdi_contains(x, weights, truth[b][q], hdi_prob))
@@ -411,13 +466,16 @@ def run_sbc(
     settings: SamplerSettings | None = None,
     scale: float = 1.0,
     n_draws: int = 199,
+    systematics: bool = True,
 ) -> SBCResult:
     """Simulate ``n_studies`` studies of ``design``, fit each and rank the truths.
 
     Each study is fitted with :func:`~inertiafit.inference.fit.fit` (``settings``, default
     :data:`SBC_SETTINGS`).
     Study ``i`` draws its truth and data from ``numpy.random.default_rng([seed, i])``.
-    ``scale`` multiplies every observation's scale when fitting (a negative control).
+    ``scale`` multiplies every observation's scale when fitting (a negative control);
+    ``systematics=False`` fits without the design's torque gain, coupling and shared error
+    (another; the gain's truth is then ranked against draws fixed at 1).
     A study whose fit raises :class:`~inertiafit.errors.InputError` (a box that cannot
     explain the simulated evidence) or ``ValueError`` (a sampler crash) is counted in
     ``failures`` and left out.
@@ -427,6 +485,8 @@ def run_sbc(
     t0 = time.perf_counter()
     settings = settings or SBC_SETTINGS
     quantities = [(b, q) for b in design.priors for q in REPORTED]
+    if design.torque_gain_sd:
+        quantities.append(("calibration", "torque_gain"))
     ranks, plain, inside = [], [], []
     failures: Counter = Counter()
     unconverged = 0
@@ -436,12 +496,24 @@ def run_sbc(
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", ConvergenceWarning)
-                post = fit(sim.model(scale), seed=int(rng.integers(2**31)), settings=settings)
+                post = fit(
+                    sim.model(scale, systematics=systematics),
+                    seed=int(rng.integers(2**31)),
+                    settings=settings,
+                )
         except (InputError, ValueError) as exc:
             failures[f"{type(exc).__name__}: {exc}"] += 1
             continue
         unconverged += any(issubclass(w.category, ConvergenceWarning) for w in caught)
         draws = {b: {q: post.draws(b, q).ravel() for q in REPORTED} for b in design.priors}
+        if design.torque_gain_sd:
+            size = draws[next(iter(design.priors))]["mass"].size
+            gain = (
+                np.ravel(post.tree["posterior"]["torque_gain"].to_numpy())
+                if systematics
+                else np.ones(size)
+            )
+            draws["calibration"] = {"torque_gain": gain}
         logw = truncation_log_weights(sim, draws)
         r, h = sbc_ranks(
             draws,

@@ -86,6 +86,7 @@ def run_fit(
     gravity_moment_sd: float | None = None,
     gravity_moment_n: int | None = None,
     gravity: float = GRAVITY,
+    torque_gain_sd: float = 0.0,
     out: str | Path = "inertiafit-output",
     seed: int = 0,
     hdi_prob: float = 0.95,
@@ -109,6 +110,7 @@ def run_fit(
         gravity_moment_sd=gravity_moment_sd,
         gravity_moment_n=gravity_moment_n,
         gravity=gravity,
+        torque_gain_sd=torque_gain_sd,
         seed=seed,
     )
     result = fit_result(

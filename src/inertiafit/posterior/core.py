@@ -108,6 +108,23 @@ class Posterior:
         lower, upper = self.prior_values(body, "lower"), self.prior_values(body, "upper")
         return {p: (lower[p], upper[p]) for p in PARAMETERS}
 
+    def calibration_note(self) -> str:
+        """One line: whether the torque channel's calibration uncertainty is in the intervals."""
+        cd = self.tree["constant_data"]
+        sd = float(cd["torque_gain_sd"]) if "torque_gain_sd" in cd else 0.0
+        if sd <= 0 or "torque_gain" not in self.tree["posterior"]:
+            return (
+                "Calibration uncertainty is not included: no torque-gain uncertainty was "
+                "declared (manifest [calibration] torque_gain_sd), so every interval assumes "
+                "an exact torque calibration."
+            )
+        gain = np.asarray(self.tree["posterior"]["torque_gain"].values)
+        return (
+            f"Calibration uncertainty is included: torque gain relative SD {100 * sd:.3g} % "
+            f"(prior), posterior {gain.mean():.4f} +- {gain.std():.2g}; it scales every I and "
+            "M_g together and is carried in every interval."
+        )
+
     # -- tables ---------------------------------------------------------------------------
     def summary(self, hdi_prob: float = 0.95) -> pd.DataFrame:
         """Table of a row per body and parameter (columns as ``summary.csv``).

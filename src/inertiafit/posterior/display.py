@@ -59,6 +59,7 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
             f"{body}: the data identify m x and I; physical consistency needs "
             f"m >= (M_g/g)^2/I = {mmin:.4g} kg"
         )
+    lines.append(post.calibration_note())
     return "\n".join(lines)
 
 
@@ -102,5 +103,6 @@ def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
     status = "converged" if post.converged else "<b>not converged</b>"
     return (
         f"<div><p><b>inertiafit posterior</b> ({status}, seed {post.tree.attrs.get('seed')})"
-        f"</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>"
+        f"</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+        f"<p>{html.escape(post.calibration_note())}</p></div>"
     )
