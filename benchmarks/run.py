@@ -7,6 +7,8 @@
 5. scaling      K segments in one study; a batch of small studies
 6. batch        run-many: a batch serially vs a local Dask cluster of 2 workers (target >= 1.6x)
 7. sbc          simulation-based calibration: rank histograms, coverage, negative controls
+8. gravity_se   the quasi-static fit's SE against its empirical error (drift, friction)
+9. coverage     the whole pipeline on simulated trial files: 95 % HDI coverage at 4 noise levels
 
 Run:  .venv/bin/python benchmarks/run.py [--quick] [--json FILE] [--only NAME ...]
       [--pymc-python PATH]   (another venv's python with PyMC and inertiafit installed)
@@ -27,7 +29,9 @@ from pathlib import Path
 
 import batch
 import common
+import coverage
 import end_to_end
+import gravity_se
 import peer_pymc
 import processing
 import sampler
@@ -43,6 +47,8 @@ BENCHMARKS = {
     "scaling": scaling.run,
     "batch": batch.run,
     "sbc": sbc.run,
+    "gravity_se": gravity_se.run,
+    "coverage": coverage.run,
 }
 
 

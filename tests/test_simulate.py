@@ -226,3 +226,26 @@ def test_paper_study_reads_with_the_project_reader(tmp_path):
     trial = study.read(1)
     assert trial["torque"].attrs["units"] == "N m"
     assert trial.attrs["speed"] == 240.0
+
+
+def test_quasi_static_trials_can_have_their_own_noise(tmp_path):
+    # a servo ripple sized for the fast ramps would shake a 1 deg/s move at several deg/s
+    ripple = Noise(servo_ripple=0.3, lag=0.002, torque_gain=1.01)
+    quiet = Noise.none()
+    manifest = simulate_study(
+        tmp_path,
+        bodies={"b": (2.0, 0.1, 0.2)},
+        conditions=[("b",)],
+        speeds=(240.0,),
+        trials_per_speed=1,
+        noise=ripple,
+        quasi_static_noise=quiet,
+    )
+    import pandas as pd
+
+    data = manifest.parent / "data"
+    qs = pd.read_csv(data / "A_quasistatic.csv")
+    fast = pd.read_csv(data / "A_240_01.csv")
+    moving = qs["velocity"].iloc[len(qs) // 4 : 3 * len(qs) // 4]
+    assert moving.max() - moving.min() < 1e-9  # exactly 1 deg/s: no ripple, no noise
+    assert np.ptp(np.diff(fast["velocity"].to_numpy())) > 1.0  # the fast trial ripples

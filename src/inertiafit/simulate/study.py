@@ -36,6 +36,7 @@ def simulate_study(
     rate: float = 1000.0,
     quasi_static_speed: float = 1.0,
     noise: Noise | None = None,
+    quasi_static_noise: Noise | None = None,
     motion: Motion | None = None,
     sampling: str = "instant",
     priors: Mapping[str, str | Mapping[str, Any]] | None = None,
@@ -81,6 +82,10 @@ def simulate_study(
         Speed of the quasi-static trials (deg/s).
     noise, motion : Noise, Motion, optional
         Passed to :func:`simulate_trial`.
+    quasi_static_noise : Noise, optional
+        Noise of the quasi-static trials instead of ``noise`` (a servo ripple sized for the
+        fast ramps is several times a 1 deg/s move's speed; keep the same ``lag`` and
+        ``torque_gain``: one recording chain). ``truth.toml`` records ``noise``.
     sampling : {"instant", "average"}
         Passed to :func:`simulate_trial`; ``"average"`` below 1 kHz.
     priors : mapping of str to (str or mapping), optional
@@ -161,7 +166,9 @@ def simulate_study(
                 offset=offset,
                 rng=np.random.default_rng(tseed),
                 rate=rate,
-                noise=noise,
+                noise=quasi_static_noise
+                if kind == "quasi-static" and quasi_static_noise
+                else noise,
                 motion=motion,
                 source=filename,
                 sampling=sampling,
