@@ -75,7 +75,7 @@ HALF_PI = np.pi / 2
 
 #: Equal cells in the fraction of ``Psi(a, b)`` on which a prior that is not a box is integrated
 #: and its angle drawn (module docstring, "Priors that are not a box").
-N_ANGLE_CELLS = 256
+N_ANGLE_CELLS = 128
 
 #: Rows of ``(a, b)`` handled at once on the angle grid (bounds the memory of one call).
 _ROWS_PER_BLOCK = 512
@@ -158,15 +158,19 @@ def angles_at(first_moment, inertia, prior: Box, fraction):
 def _curve_log_density(a, b, prior: Prior, n: int):
     """``log p_m p_x p_rho`` at the midpoints of ``n`` equal cells of ``Psi(a, b)``.
 
-    ``a``, ``b`` are 1-D; returns ``(log density (rows, n), |Psi| (rows,))``.
+    ``a``, ``b`` are 1-D; returns ``(log density (rows, n), |Psi| (rows,))``. The cells are
+    those of :func:`angles_at` (the two intervals laid end to end).
     """
-    measure = feasible_measure(a, b, prior)
-    u = (np.arange(n) + 0.5) / n
+    lo1, hi1, lo2, hi2 = feasible_angles(a, b, prior)
+    len1 = np.maximum(hi1 - lo1, 0.0)
+    measure = len1 + np.maximum(hi2 - lo2, 0.0)
     ok = measure > 0
-    aa, bb = np.where(ok, a, 1.0)[:, None], np.where(ok, b, 1.0)[:, None]
-    psi = angles_at(aa, bb, prior, u[None, :])
+    u = ((np.arange(n) + 0.5) / n)[None, :] * measure[:, None]
+    psi = np.where(u < len1[:, None], lo1[:, None] + u, (lo2 - len1)[:, None] + u)
     with np.errstate(divide="ignore", invalid="ignore"):
-        mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
+        mass, x, rho = physics.parameters_from_identified(
+            np.where(ok, a, 1.0)[:, None], np.where(ok, b, 1.0)[:, None], psi
+        )
         log_f = prior.log_density(mass, x, rho, check_support=False)
     return np.where(ok[:, None], log_f, -np.inf), measure
 
