@@ -9,8 +9,8 @@ leaves are independent of each other. Write each leaf condition's totals
 
     p(S, T) ~ pi_S(S) L_shared(S) * prod_k L_k(T_k) pi_k(T_k - S_k)
 
-with ``pi_k(a, b) = |Psi_k(a, b)| / a`` the leaf's prior in ``(a, b)`` (see
-:mod:`inertiafit.inference.model`) and ``L_k`` the evidence of leaf condition ``k``. Where the data say
+with ``pi_k(a, b) = |Psi_k(a, b)| / a`` the leaf's prior in ``(a, b)`` for a box, the prior
+integrated along the curve over ``a`` otherwise (see :mod:`inertiafit.inference.model`) and ``L_k`` the evidence of leaf condition ``k``. Where the data say
 more than the prior boxes, ``T_k`` is nearly independent of ``S`` — the slow direction of a
 Gibbs sampler in the original coordinates (moving the attachment while every segment holds
 still) becomes a direction of nearly independent draws. Each sweep, vectorised over chains:
@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inertiafit.inference.model import Model, feasible_measure
+from inertiafit.inference.model import Model, feasible_measure, log_curve_integral
 from inertiafit.inference.moves import StudentTProposal
 from inertiafit.inference.observations import Observation
 from inertiafit.stats import student_t_draws, student_t_logpdf
@@ -166,7 +166,9 @@ class BlockedGibbs:
         self.gravity = _evidence_arrays([c.gravity_moment for c in leaf_conds])  # type: ignore[misc]
         self.n_shared = len(star.shared)
         self.has_gain = model.has_gain
-        self.boxes = _Boxes([model.priors[model.bodies[j]] for j in star.leaves])
+        self.leaf_priors = [model.priors[model.bodies[j]] for j in star.leaves]
+        self.boxes = _Boxes(self.leaf_priors)
+        self.all_boxes = all(p.is_box for p in self.leaf_priors)
         self.accepted = np.zeros(3)
         self.proposed = np.zeros(3)
 
@@ -215,9 +217,19 @@ class BlockedGibbs:
             a, b = a * inv, b * inv
             shift = -2.0 * np.asarray(log_gain)[..., None]
         ok = (a > 0) & (b > 0)
+        a_ok, b_ok = np.where(ok, a, 1.0), np.where(ok, b, 1.0)
         with np.errstate(divide="ignore", invalid="ignore"):
-            meas = feasible_measure(np.where(ok, a, 1.0), np.where(ok, b, 1.0), self.boxes)
-            return np.where(ok, np.log(meas) - np.log(np.where(ok, a, 1.0)) + shift, -np.inf)
+            if self.all_boxes:
+                log_meas = np.log(feasible_measure(a_ok, b_ok, self.boxes))
+            else:  # a leaf that is not a box: its prior integrated along the curve
+                log_meas = np.empty(np.shape(a_ok))
+                for i, prior in enumerate(self.leaf_priors):
+                    if prior.is_box:
+                        col = np.log(feasible_measure(a_ok[..., i], b_ok[..., i], prior))
+                    else:
+                        col = log_curve_integral(a_ok[..., i], b_ok[..., i], prior)
+                    log_meas[..., i] = col
+            return np.where(ok, log_meas - np.log(a_ok) + shift, -np.inf)
 
     def _shared_totals(self, s_log) -> tuple[np.ndarray, np.ndarray]:
         """Shared bodies' contribution to each leaf condition: ``(..., L)`` in ``a`` and ``b``."""

@@ -171,6 +171,7 @@ def build_tree(
                     "description": model.priors[b].description,
                     "name": model.priors[b].name,
                     "reference": model.priors[b].reference,
+                    "distribution": model.priors[b].distribution,
                 }
                 for b in bodies
             }

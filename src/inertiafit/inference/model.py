@@ -15,6 +15,20 @@ with emcee (in ``log a, log b``, where it is close to Gaussian and axis-aligned)
 is drawn exactly, uniformly from ``Psi(a, b)``, for every kept draw. The data-identified part and
 the prior-only part of the problem are separate coordinates.
 
+Priors that are not a box
+-------------------------
+The Jacobian ``|d(m, x, rho) / d(a, b, psi)|`` is ``1/a`` whatever the prior (from
+``|d(m, a, b) / d(m, x, rho)| = 2 m^2 rho`` and ``dm/dpsi = -2 a^2 cos psi / (b sin^3 psi)``).
+So a prior density ``p_m(m) p_x(x) p_rho(rho)`` (:meth:`~inertiafit.inference.priors.Prior.
+log_density`, zero outside its support box) is, in ``(a, b, psi)``,
+``p_m p_x p_rho (a, b, psi) / a`` on the same ``Psi(a, b)``: for fixed ``(a, b)`` the angle has
+the density ``p(psi | a, b) ~ p_m p_x p_rho`` along the curve, and ``(a, b)`` the marginal
+``(1/a) * integral over Psi(a, b) of p_m p_x p_rho d psi``. Both are computed on one grid of
+:data:`N_ANGLE_CELLS` equal cells spanning ``Psi(a, b)`` (its two intervals laid end to end): the
+integral by the midpoint rule (:func:`log_identified_prior`), and the angle drawn exactly from
+the density that is constant on each cell (inverse CDF, linear within cells;
+:func:`draw_angles`). A box (every parameter uniform) keeps the closed forms above.
+
 Systematic errors
 -----------------
 * A condition's gravity model is subtracted from all its fast trials: its error moves their
@@ -44,16 +58,27 @@ from inertiafit.inference.priors import Prior
 from inertiafit.physics import GRAVITY, PARAMETERS
 
 __all__ = [
+    "N_ANGLE_CELLS",
     "Box",
     "Condition",
     "Model",
+    "angle_density",
     "angles_at",
     "draw_angles",
     "feasible_angles",
     "feasible_measure",
+    "log_curve_integral",
+    "log_identified_prior",
 ]
 
 HALF_PI = np.pi / 2
+
+#: Equal cells in the fraction of ``Psi(a, b)`` on which a prior that is not a box is integrated
+#: and its angle drawn (module docstring, "Priors that are not a box").
+N_ANGLE_CELLS = 128
+
+#: Rows of ``(a, b)`` handled at once on the angle grid (bounds the memory of one call).
+_ROWS_PER_BLOCK = 512
 
 
 class Box(Protocol):
@@ -130,10 +155,105 @@ def angles_at(first_moment, inertia, prior: Box, fraction):
     return np.where(u < len1, lo1 + u, lo2 + (u - len1))
 
 
+def _curve_log_density(a, b, prior: Prior, n: int):
+    """``log p_m p_x p_rho`` at the midpoints of ``n`` equal cells of ``Psi(a, b)``.
+
+    ``a``, ``b`` are 1-D; returns ``(log density (rows, n), |Psi| (rows,))``. The cells are
+    those of :func:`angles_at` (the two intervals laid end to end).
+    """
+    lo1, hi1, lo2, hi2 = feasible_angles(a, b, prior)
+    len1 = np.maximum(hi1 - lo1, 0.0)
+    measure = len1 + np.maximum(hi2 - lo2, 0.0)
+    ok = measure > 0
+    u = ((np.arange(n) + 0.5) / n)[None, :] * measure[:, None]
+    psi = np.where(u < len1[:, None], lo1[:, None] + u, (lo2 - len1)[:, None] + u)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mass, x, rho = physics.parameters_from_identified(
+            np.where(ok, a, 1.0)[:, None], np.where(ok, b, 1.0)[:, None], psi
+        )
+        log_f = prior.log_density(mass, x, rho, check_support=False)
+    return np.where(ok[:, None], log_f, -np.inf), measure
+
+
+def log_curve_integral(first_moment, inertia, prior: Prior, n: int = N_ANGLE_CELLS):
+    """``log`` of the integral of ``p_m p_x p_rho`` over ``Psi(a, b)`` d psi (midpoint rule).
+
+    ``a`` times the prior density of ``(a, b)``; ``-inf`` where ``Psi(a, b)`` is empty. For a
+    box this is ``log(|Psi| / V)``, ``V`` the box's volume.
+    """
+    a, b = np.broadcast_arrays(np.asarray(first_moment, float), np.asarray(inertia, float))
+    flat_a, flat_b = a.ravel(), b.ravel()
+    out = np.empty(flat_a.shape)
+    for i in range(0, len(flat_a), _ROWS_PER_BLOCK):
+        sl = slice(i, i + _ROWS_PER_BLOCK)
+        log_f, measure = _curve_log_density(flat_a[sl], flat_b[sl], prior, n)
+        top = log_f.max(-1)
+        safe = np.where(np.isfinite(top), top, 0.0)
+        with np.errstate(divide="ignore"):
+            mean = np.log(np.exp(log_f - safe[:, None]).mean(-1))
+            out[sl] = np.where(np.isfinite(top), safe + mean + np.log(measure), -np.inf)
+    return out.reshape(a.shape)
+
+
+def log_identified_prior(first_moment, inertia, prior: Box):
+    """Log prior density of ``(a, b)`` up to a constant per prior; ``-inf`` off the support.
+
+    ``log(|Psi| / a)`` for a box (closed form), ``log_curve_integral - log a`` otherwise.
+    ``prior`` may be a :class:`~inertiafit.inference.priors.Prior` or, for boxes only, bounds
+    of several bodies as arrays.
+    """
+    a = np.asarray(first_moment, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if getattr(prior, "is_box", True):
+            return np.log(feasible_measure(a, inertia, prior)) - np.log(a)
+        return log_curve_integral(a, inertia, prior) - np.log(a)  # type: ignore[arg-type]
+
+
+def angle_density(first_moment: float, inertia: float, prior: Prior, psi, n: int = 4096):
+    """Density of ``psi`` given ``(a, b)`` under the prior, at angles ``psi`` (1/rad).
+
+    The exact ``p_m p_x p_rho`` along the curve over its integral (midpoint rule on ``n``
+    cells); for a box ``1 / |Psi|`` on ``Psi(a, b)``. For tests and figures.
+    """
+    psi = np.asarray(psi, float)
+    a = np.full(psi.shape, float(first_moment))
+    b = np.full(psi.shape, float(inertia))
+    lo1, hi1, lo2, hi2 = feasible_angles(a, b, prior)
+    inside = ((psi >= lo1) & (psi <= hi1)) | ((psi >= lo2) & (psi <= hi2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_f = prior.log_density(*physics.parameters_from_identified(a, b, psi))
+    log_z = log_curve_integral(float(first_moment), float(inertia), prior, n)
+    return np.where(inside, np.exp(log_f - log_z), 0.0)
+
+
 def draw_angles(first_moment, inertia, prior: Box, rng: np.random.Generator):
-    """Draw ``psi`` uniformly from ``Psi(a, b)`` for each pair (arrays of one shape)."""
+    """Draw ``psi`` from its prior given ``(a, b)``, for each pair (arrays of one shape).
+
+    Uniform on ``Psi(a, b)`` for a box; otherwise from the density constant on each of
+    :data:`N_ANGLE_CELLS` cells (inverse CDF, linear within cells). One uniform per draw.
+    """
     shape = np.broadcast_shapes(np.shape(first_moment), np.shape(inertia))
-    return angles_at(first_moment, inertia, prior, rng.uniform(size=shape))
+    if getattr(prior, "is_box", True):
+        return angles_at(first_moment, inertia, prior, rng.uniform(size=shape))
+    v = rng.uniform(size=shape).ravel()
+    a = np.broadcast_to(np.asarray(first_moment, float), shape).ravel()
+    b = np.broadcast_to(np.asarray(inertia, float), shape).ravel()
+    n = N_ANGLE_CELLS
+    fraction = np.empty(v.shape)
+    for i in range(0, len(v), _ROWS_PER_BLOCK):
+        sl = slice(i, i + _ROWS_PER_BLOCK)
+        log_f, _ = _curve_log_density(a[sl], b[sl], prior, n)  # type: ignore[arg-type]
+        top = log_f.max(-1, keepdims=True)
+        w = np.exp(log_f - np.where(np.isfinite(top), top, 0.0))
+        cdf = np.cumsum(w, -1)
+        target = v[sl] * cdf[:, -1]
+        cell = np.minimum((cdf <= target[:, None]).sum(-1), n - 1)
+        rows = np.arange(len(cell))
+        below = np.where(cell > 0, cdf[rows, np.maximum(cell - 1, 0)], 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            within = np.clip((target - below) / w[rows, cell], 0.0, 1.0)
+        fraction[sl] = (cell + np.nan_to_num(within, nan=0.5)) / n
+    return angles_at(a, b, prior, np.minimum(fraction, 1 - 1e-12)).reshape(shape)
 
 
 @dataclass(frozen=True)
@@ -184,7 +304,7 @@ class Model:
     Parameters
     ----------
     priors : mapping of str to Prior
-        One prior box per body, in the order bodies are reported.
+        One prior per body (a box or other distributions), in the order bodies are reported.
     conditions : sequence of Condition
         What was measured; every body must appear in at least one condition.
     gravity : float
@@ -280,12 +400,20 @@ class Model:
         return z
 
     def log_prior(self, z):
-        """Log density of the marginal prior of the sampled coordinates, up to a constant."""
+        """Log density of the marginal prior of the sampled coordinates, up to a constant.
+
+        Per body ``log(integral over Psi(a, b) of the prior along the curve) + log b`` (the
+        ``1/a`` of the Jacobian and the ``a b`` of the log coordinates cancel).
+        """
         a, b = self.true_identified(z)
         out = np.zeros(np.shape(a)[:-1])
         for k, body in enumerate(self.bodies):
-            with np.errstate(divide="ignore"):
-                out = out + np.log(feasible_measure(a[..., k], b[..., k], self.priors[body]))
+            prior = self.priors[body]
+            if prior.is_box:
+                with np.errstate(divide="ignore"):
+                    out = out + np.log(feasible_measure(a[..., k], b[..., k], prior))
+            else:  # the integral of the prior along the curve (module docstring)
+                out = out + log_curve_integral(a[..., k], b[..., k], prior)
         out = out + np.log(b).sum(-1)
         if self.has_gain:
             out = out - 0.5 * (self.log_gain(z) / self.torque_gain_sd) ** 2

@@ -1,4 +1,4 @@
-"""Prior boxes for a body's inertial parameters, read from small TOML files.
+"""Priors for a body's inertial parameters, read from small TOML files.
 
 A prior file holds a ``description``, a ``source``, an optional top-level ``spread`` (default
 0.5, the paper's +-50 % box) and one table per parameter::
@@ -19,6 +19,17 @@ A prior file holds a ``description``, a ``source``, an optional top-level ``spre
     lower = 0.15            # explicit bounds instead of a spread
     upper = 0.30
 
+A parameter table may instead name another ``distribution`` (default ``"uniform"``, the box
+above); its support is the box every model keeps using (:attr:`Prior.lower`, :attr:`Prior.upper`):
+
+* ``"normal"``: ``mean``, ``sd`` (in ``unit``); support ``mean +- 4.753 sd`` (the 1e-6 and
+  1 - 1e-6 quantiles), which must be positive;
+* ``"lognormal"``: ``median`` (in ``unit``) and ``sd_log``, the SD of the natural logarithm
+  (a geometric SD of ``exp(sd_log)``); support ``median * exp(+-4.753 sd_log)``;
+* ``"truncated-normal"``: ``mean``, ``sd``, ``lower``, ``upper`` (the support).
+
+The density outside the support is zero (the normal and lognormal lose 2e-6 of their mass).
+
 An optional ``[reference]`` table carries published values to print beside the posterior
 (``label``, ``mass``, ``com_distance``, ``radius_of_gyration``, ``inertia`` in SI units).
 Files are parsed against this schema; nothing in them is executed.
@@ -34,26 +45,52 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy import special
 
 from inertiafit.errors import InputError
 from inertiafit.io.units import si_factors
 from inertiafit.physics import PARAMETERS, UNITS
 
-__all__ = ["DEFAULT_SPREAD", "Prior", "available_priors", "load_prior", "parse_prior"]
+__all__ = [
+    "DEFAULT_SPREAD",
+    "DISTRIBUTIONS",
+    "SUPPORT_QUANTILE",
+    "Prior",
+    "available_priors",
+    "load_prior",
+    "parse_prior",
+]
 
 DEFAULT_SPREAD = 0.5
+
+#: Distributions a parameter's prior may have, and the keys each takes besides ``unit``,
+#: ``label`` and ``distribution`` (required keys first; ``uniform`` needs ``nominal`` and
+#: ``spread`` or ``lower``/``upper`` optionally).
+DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
+    "uniform": ("nominal", "spread", "lower", "upper"),
+    "normal": ("mean", "sd"),
+    "lognormal": ("median", "sd_log"),
+    "truncated-normal": ("mean", "sd", "lower", "upper"),
+}
+
+#: Lower tail mass cut off at each end of the support of a normal or lognormal prior.
+SUPPORT_QUANTILE = 1e-6
+_Q = float(-special.ndtri(SUPPORT_QUANTILE))  # 4.753 SDs
 
 # Each parameter's quantity in the unit table of inertiafit.io.units; a prior file's ``unit``
 # must be one of its canonical spellings (kg, g; m, cm, mm), exactly as written.
 _QUANTITY = {"mass": "mass", "com_distance": "length", "radius_of_gyration": "length"}
 _TOP_KEYS = {"name", "description", "source", "spread", "reference", *PARAMETERS}
-_PARAM_KEYS = {"nominal", "unit", "spread", "lower", "upper", "label"}
+_PARAM_KEYS = {"distribution", "unit", "label", *(k for v in DISTRIBUTIONS.values() for k in v)}
 _REFERENCE_KEYS = {"label", "inertia", "gravity_moment", *PARAMETERS}
 
 
 @dataclass(frozen=True)
 class Prior:
-    """Uniform prior box on ``(mass, com_distance, radius_of_gyration)`` of one body.
+    """Prior on ``(mass, com_distance, radius_of_gyration)`` of one body: independent parameters.
+
+    Each parameter is uniform on its bounds (the box, the default) or has one of the
+    :data:`DISTRIBUTIONS`, whose support the bounds are.
 
     Attributes
     ----------
@@ -69,6 +106,11 @@ class Prior:
         Optional published values (SI units) to show beside the posterior.
     path : pathlib.Path or None
         The file it was read from.
+    distribution : dict[str, dict[str, Any]]
+        Per parameter that is not uniform: ``{"kind": "normal", "mean": .., "sd": ..}``,
+        ``{"kind": "lognormal", "median": .., "sd_log": ..}`` or
+        ``{"kind": "truncated-normal", "mean": .., "sd": ..}`` (SI units; the truncation bounds
+        are ``lower``/``upper``). A parameter missing here is uniform on its bounds.
     """
 
     name: str
@@ -79,6 +121,55 @@ class Prior:
     source: str = ""
     reference: dict[str, Any] = field(default_factory=dict)
     path: Path | None = None
+    distribution: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    def kind(self, parameter: str) -> str:
+        """The parameter's distribution: ``uniform``, ``normal``, ``lognormal`` or ..."""
+        return str(self.distribution.get(parameter, {}).get("kind", "uniform"))
+
+    @property
+    def is_box(self) -> bool:
+        """Whether every parameter is uniform (the closed-form box)."""
+        return all(self.kind(p) == "uniform" for p in PARAMETERS)
+
+    def log_density(
+        self, mass, com_distance, radius_of_gyration, *, check_support: bool = True
+    ) -> np.ndarray:
+        """Log prior density of ``(m, x, rho)`` up to a constant; ``-inf`` outside the bounds.
+
+        The constant is the same everywhere (each parameter's truncation mass is left out).
+        ``check_support=False`` skips the bounds (for points known to lie inside them).
+        """
+        values = (mass, com_distance, radius_of_gyration)
+        out = np.full(np.broadcast(*values).shape, -self._log_scale)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for p, raw in zip(PARAMETERS, values, strict=True):
+                v = np.asarray(raw, dtype=float)
+                d = self.distribution.get(p, {})
+                kind = d.get("kind", "uniform")
+                if kind == "lognormal":
+                    log_v = np.log(v)
+                    z = (log_v - math.log(d["median"])) / d["sd_log"]
+                    out -= 0.5 * z * z + log_v
+                elif kind != "uniform":  # normal, truncated-normal
+                    z = (v - d["mean"]) / d["sd"]
+                    out -= 0.5 * z * z
+                if check_support:
+                    out[~((v >= self.lower[p]) & (v <= self.upper[p]))] = -np.inf
+        return out
+
+    @property
+    def _log_scale(self) -> float:
+        """Constant part of ``-log_density``: each parameter's ``log(width)`` or ``log(sd)``."""
+        total = 0.0
+        for p in PARAMETERS:
+            d = self.distribution.get(p, {})
+            kind = d.get("kind", "uniform")
+            if kind == "uniform":
+                total += math.log(self.upper[p] - self.lower[p])
+            else:
+                total += math.log(d["sd_log" if kind == "lognormal" else "sd"])
+        return total
 
     @classmethod
     def box(
@@ -116,20 +207,60 @@ class Prior:
         return inside
 
     def sample(self, size: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-        """Independent draws from the box, a dict of arrays of length ``size`` (SI units)."""
-        return {p: rng.uniform(self.lower[p], self.upper[p], size) for p in PARAMETERS}
+        """Independent draws from the prior, a dict of arrays of length ``size`` (SI units).
+
+        A uniform parameter takes ``rng.uniform(lower, upper, size)`` (so a box's draws are those
+        of earlier versions); the others one uniform each, through the inverse CDF.
+        """
+        out = {}
+        for p in PARAMETERS:
+            lo, hi = self.lower[p], self.upper[p]
+            d = self.distribution.get(p, {})
+            kind = d.get("kind", "uniform")
+            if kind == "uniform":
+                out[p] = rng.uniform(lo, hi, size)
+                continue
+            if kind == "lognormal":
+                mu, sd, lo, hi = math.log(d["median"]), d["sd_log"], math.log(lo), math.log(hi)
+            else:
+                mu, sd = d["mean"], d["sd"]
+            out[p] = _truncated_normal_quantile(rng.uniform(size=size), mu, sd, lo, hi)
+            if kind == "lognormal":
+                out[p] = np.exp(out[p])
+        return out
 
     def describe(self) -> str:
-        """One line per parameter: nominal and bounds with units."""
+        """One line per parameter: its distribution and bounds with units."""
         lines = [f"prior '{self.name}': {self.description}".rstrip(": ")]
         for p in PARAMETERS:
-            lines.append(
-                f"  {p:<19} nominal {self.nominal[p]:.4g} {UNITS[p]}, "
-                f"uniform on [{self.lower[p]:.4g}, {self.upper[p]:.4g}]"
-            )
+            d = self.distribution.get(p, {})
+            kind = d.get("kind", "uniform")
+            u = UNITS[p]
+            if kind == "uniform":
+                what = f"nominal {self.nominal[p]:.4g} {u}, uniform"
+            elif kind == "lognormal":
+                what = f"lognormal, median {d['median']:.4g} {u}, sd of log {d['sd_log']:.4g}"
+            else:
+                what = f"{kind}, mean {d['mean']:.4g} {u}, sd {d['sd']:.4g} {u}"
+            lines.append(f"  {p:<19} {what} on [{self.lower[p]:.4g}, {self.upper[p]:.4g}]")
         if self.source:
             lines.append(f"  source: {self.source}")
         return "\n".join(lines)
+
+
+def _truncated_normal_quantile(u, mean: float, sd: float, lower: float, upper: float):
+    """The quantile ``u`` (in ``[0, 1)``) of ``N(mean, sd^2)`` truncated to ``[lower, upper]``.
+
+    Computed in the tail nearer the mean (the upper tail is mirrored), so bounds far out on one
+    side lose no precision.
+    """
+    alpha, beta = (lower - mean) / sd, (upper - mean) / sd
+    if alpha > 0:  # both bounds above the mean: mirror
+        return mean - sd * special.ndtri(
+            special.ndtr(-alpha) - np.asarray(u) * (special.ndtr(-alpha) - special.ndtr(-beta))
+        )
+    c0, c1 = special.ndtr(alpha), special.ndtr(beta)
+    return np.clip(mean + sd * special.ndtri(c0 + np.asarray(u) * (c1 - c0)), lower, upper)
 
 
 def _number(value: Any, where: str, field_name: str) -> float:
@@ -167,7 +298,7 @@ def parse_prior(
     spread = _number(table.get("spread", DEFAULT_SPREAD), where, "spread")
     if not 0 < spread < 1:
         raise InputError(f"{where}: 'spread' must lie in (0, 1), got {spread}")
-    nominal, lower, upper = {}, {}, {}
+    nominal, lower, upper, distribution = {}, {}, {}, {}
     for p in PARAMETERS:
         if p not in table:
             raise InputError(f"{where}: missing parameter table '[{p}]' (with 'nominal')")
@@ -179,8 +310,19 @@ def parse_prior(
             raise InputError(
                 f"{where}: unknown key '{p}.{bad[0]}' (allowed: {', '.join(sorted(_PARAM_KEYS))})"
             )
-        if "nominal" not in entry:
-            raise InputError(f"{where}: '{p}.nominal' is missing (a positive number)")
+        kind = entry.get("distribution", "uniform")
+        if kind not in DISTRIBUTIONS:
+            raise InputError(
+                f"{where}: '{p}.distribution' is {kind!r}; expected one of "
+                f"{', '.join(DISTRIBUTIONS)}"
+            )
+        allowed = {"distribution", "unit", "label", *DISTRIBUTIONS[kind]}
+        bad = sorted(set(entry) - allowed)
+        if bad:
+            raise InputError(
+                f"{where}: '{p}.{bad[0]}' is not a parameter of a {kind} prior "
+                f"(allowed: {', '.join(sorted(allowed - {'distribution', 'label'}))})"
+            )
         unit = entry.get("unit", UNITS[p])
         factors = si_factors(_QUANTITY[p])
         if unit not in factors:
@@ -188,28 +330,17 @@ def parse_prior(
                 f"{where}: '{p}.unit' is {unit!r}; expected one of {', '.join(factors)}"
             )
         scale = factors[unit]
-        nom = _number(entry["nominal"], where, f"{p}.nominal") * scale
-        if nom <= 0:
-            raise InputError(f"{where}: '{p}.nominal' must be positive, got {entry['nominal']}")
-        own_spread = _number(entry.get("spread", spread), where, f"{p}.spread")
-        if not 0 < own_spread < 1:
-            raise InputError(f"{where}: '{p}.spread' must lie in (0, 1), got {own_spread}")
-        if ("lower" in entry) != ("upper" in entry):
-            raise InputError(f"{where}: give both '{p}.lower' and '{p}.upper', or neither")
-        if "lower" in entry:
-            if "spread" in entry:
-                raise InputError(f"{where}: give '{p}.spread' or '{p}.lower'/'upper', not both")
-            lo = _number(entry["lower"], where, f"{p}.lower") * scale
-            hi = _number(entry["upper"], where, f"{p}.upper") * scale
+        if kind == "uniform":
+            nom, lo, hi = _uniform_bounds(entry, p, spread, scale, where)
         else:
-            lo, hi = nom * (1 - own_spread), nom * (1 + own_spread)
+            nom, lo, hi, distribution[p] = _shaped_bounds(entry, p, kind, scale, where)
         if lo < 0 or (lo == 0 and p == "mass"):
             raise InputError(f"{where}: '{p}.lower' must be positive, got {lo / scale:g}")
         if lo >= hi:
             raise InputError(
                 f"{where}: '{p}.lower' ({lo / scale:g}) must be below '{p}.upper' ({hi / scale:g})"
             )
-        if not lo <= nom <= hi:
+        if kind == "uniform" and not lo <= nom <= hi:
             raise InputError(
                 f"{where}: '{p}.nominal' ({nom / scale:g}) lies outside "
                 f"[{lo / scale:g}, {hi / scale:g}]"
@@ -237,7 +368,62 @@ def parse_prior(
         source=table.get("source", ""),
         reference=ref,
         path=path,
+        distribution=distribution,
     )
+
+
+def _uniform_bounds(entry: dict, p: str, spread: float, scale: float, where: str):
+    """``(nominal, lower, upper)`` of a uniform parameter (SI units)."""
+    if "nominal" not in entry:
+        raise InputError(f"{where}: '{p}.nominal' is missing (a positive number)")
+    nom = _number(entry["nominal"], where, f"{p}.nominal") * scale
+    if nom <= 0:
+        raise InputError(f"{where}: '{p}.nominal' must be positive, got {entry['nominal']}")
+    own_spread = _number(entry.get("spread", spread), where, f"{p}.spread")
+    if not 0 < own_spread < 1:
+        raise InputError(f"{where}: '{p}.spread' must lie in (0, 1), got {own_spread}")
+    if ("lower" in entry) != ("upper" in entry):
+        raise InputError(f"{where}: give both '{p}.lower' and '{p}.upper', or neither")
+    if "lower" in entry:
+        if "spread" in entry:
+            raise InputError(f"{where}: give '{p}.spread' or '{p}.lower'/'upper', not both")
+        lo = _number(entry["lower"], where, f"{p}.lower") * scale
+        hi = _number(entry["upper"], where, f"{p}.upper") * scale
+    else:
+        lo, hi = nom * (1 - own_spread), nom * (1 + own_spread)
+    return nom, lo, hi
+
+
+def _shaped_bounds(entry: dict, p: str, kind: str, scale: float, where: str):
+    """``(nominal, lower, upper, distribution)`` of a normal, lognormal or truncated normal."""
+    for key in DISTRIBUTIONS[kind]:
+        if key not in entry:
+            raise InputError(f"{where}: '{p}.{key}' is missing (a {kind} prior needs it)")
+    values = {k: _number(entry[k], where, f"{p}.{k}") for k in DISTRIBUTIONS[kind]}
+    spread_key = "sd_log" if kind == "lognormal" else "sd"
+    if values[spread_key] <= 0:
+        raise InputError(f"{where}: '{p}.{spread_key}' must be positive, got {entry[spread_key]}")
+    if kind == "lognormal":
+        median, sd_log = values["median"] * scale, values["sd_log"]
+        if median <= 0:
+            raise InputError(f"{where}: '{p}.median' must be positive, got {entry['median']}")
+        return (
+            median,
+            median * math.exp(-_Q * sd_log),
+            median * math.exp(_Q * sd_log),
+            {"kind": kind, "median": median, "sd_log": sd_log},
+        )
+    mean, sd = values["mean"] * scale, values["sd"] * scale
+    if kind == "normal":
+        lo, hi = mean - _Q * sd, mean + _Q * sd
+        if lo <= 0:
+            raise InputError(
+                f"{where}: '{p}' normal prior reaches zero (mean - {_Q:.3f} sd = {lo / scale:g}); "
+                "use a lognormal or a truncated-normal prior"
+            )
+    else:
+        lo, hi = values["lower"] * scale, values["upper"] * scale
+    return mean, lo, hi, {"kind": kind, "mean": mean, "sd": sd}
 
 
 def _shipped_dirs() -> list[Path]:

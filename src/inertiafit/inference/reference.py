@@ -1,9 +1,9 @@
 """Exact single-body posterior by quadrature, the yardstick for the sampler.
 
 For one body in one condition the posterior is a 3-D integral. On a grid in
-``(m, a = m x, b = I)`` the likelihood depends on ``(a, b)`` only and the uniform prior on
-``(m, x, rho)`` becomes the density ``1 / (2 m^2 rho)`` (the inverse of the Jacobian
-``|d(m, a, b) / d(m, x, rho)| = 2 m^2 rho``) on the image of the box. A midpoint rule on a fine,
+``(m, a = m x, b = I)`` the likelihood depends on ``(a, b)`` only and the prior density
+``p(m, x, rho)`` on ``(m, x, rho)`` becomes ``p(m, x, rho) / (2 m^2 rho)`` (over the Jacobian
+``|d(m, a, b) / d(m, x, rho)| = 2 m^2 rho``) on the image of its support box. A midpoint rule on a fine,
 data-adapted grid gives moments, quantiles and marginal densities of every parameter. This code
 shares nothing with the sampler's parametrisation, so agreement between the two is a real check.
 """
@@ -16,7 +16,7 @@ import numpy as np
 
 from inertiafit import physics
 from inertiafit.inference.blocked import Star, star_structure
-from inertiafit.inference.model import angles_at, feasible_measure
+from inertiafit.inference.model import angles_at, feasible_measure, log_identified_prior
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.physics import GRAVITY
@@ -83,6 +83,19 @@ def _midpoints(edges: np.ndarray) -> np.ndarray:
     return 0.5 * (edges[1:] + edges[:-1])
 
 
+def _angle_weights(prior: Prior, mass, x, rho) -> np.ndarray:
+    """How each ``(a, b)`` point's weight splits over its angles (rows of ``(n, n_angle)``).
+
+    Equal for a box; the prior density at each angle, normalised per row, otherwise.
+    """
+    n_angle = np.shape(mass)[-1]
+    if prior.is_box:
+        return np.full(np.shape(mass), 1.0 / n_angle)
+    log_p = prior.log_density(mass, x, rho, check_support=False)
+    w = np.exp(log_p - log_p.max(-1, keepdims=True))
+    return w / w.sum(-1, keepdims=True)
+
+
 def reference_posterior(
     prior: Prior,
     inertia: Observation,
@@ -99,7 +112,8 @@ def reference_posterior(
     Parameters
     ----------
     prior : Prior
-        The body's box.
+        The body's prior (a box or other distributions; :meth:`Prior.log_density` weights
+        each grid point).
     inertia, gravity_moment : Observation
         Evidence on ``I`` (kg m^2) and ``M_g`` (N m).
     gravity : float
@@ -145,6 +159,9 @@ def reference_posterior(
     )
     rho = np.sqrt(np.where(inside, rho2, 1.0))
     w = np.where(inside, like[None, :, :] / (2 * M * M * rho), 0.0)
+    if not prior.is_box:  # the prior density in (m, x, rho), relative to its peak
+        log_p = np.where(inside, prior.log_density(M, x, rho, check_support=False), -np.inf)
+        w = w * np.exp(log_p - log_p.max())
     keep = w > 0
     weights = w[keep]
     weights = weights / weights.sum()
@@ -219,8 +236,7 @@ def star_reference(
         return _midpoints(_edges(center, half, support, n_grid))
 
     def log_prior(a, b, prior):
-        with np.errstate(divide="ignore"):
-            return np.log(feasible_measure(a[:, None], b[None, :], prior)) - np.log(a)[:, None]
+        return log_identified_prior(a[:, None], b[None, :], prior)
 
     def evidence(obs, values):
         return np.exp(obs.logpdf(values))
@@ -275,9 +291,12 @@ def star_reference(
         if n_angle:
             aa = np.repeat(A[keep][:, None], n_angle, 1)
             bb = np.repeat(B[keep][:, None], n_angle, 1)
-            # psi uniform on Psi(a, b): the midpoints of n_angle equal parts of it
-            psi = angles_at(aa, bb, model.priors[name], (np.arange(n_angle) + 0.5) / n_angle)
+            # psi on Psi(a, b): the midpoints of n_angle equal parts of it, weighted by the
+            # prior along the curve (equal weights for a box)
+            prior = model.priors[name]
+            psi = angles_at(aa, bb, prior, (np.arange(n_angle) + 0.5) / n_angle)
             mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
+            split = _angle_weights(prior, mass, x, rho)
             values = {
                 "mass": mass.ravel(),
                 "com_distance": x.ravel(),
@@ -285,7 +304,7 @@ def star_reference(
                 "inertia": bb.ravel(),
                 "gravity_moment": g * aa.ravel(),
             }
-            weights = np.repeat(weights / n_angle, n_angle)
+            weights = (weights[:, None] * split).ravel()
         out[name] = ReferencePosterior(values=values, weights=weights)
     return out
 
@@ -347,7 +366,7 @@ def gain_reference(
             + np.log(feasible_measure(a, b, prior))
             - np.log(a)
             - 2 * ELL
-        )
+        )  # |Psi| / a: the box's density, times the mean of the prior along Psi below
     keep = np.isfinite(log_w)
     w = np.exp(log_w[keep] - log_w[keep].max())
     aa = np.repeat(a[keep][:, None], n_angle, 1)
@@ -355,7 +374,12 @@ def gain_reference(
     psi = angles_at(aa, bb, prior, (np.arange(n_angle) + 0.5) / n_angle)
     mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
     gain = np.repeat(np.exp(ELL[keep])[:, None], n_angle, 1)
-    weights = np.repeat(w / w.sum() / n_angle, n_angle)
+    if prior.is_box:
+        weights = np.repeat(w / w.sum() / n_angle, n_angle)
+    else:  # each angle carries |Psi| / (a n_angle) times the prior density there
+        log_p = prior.log_density(mass, x, rho, check_support=False)
+        weights = (w[:, None] * np.exp(log_p - log_p.max())).ravel()
+        weights = weights / weights.sum()
     values = {
         "mass": mass.ravel(),
         "com_distance": x.ravel(),

@@ -33,8 +33,9 @@ __all__ = ["LATER_TRIAL_COLUMNS", "load_result", "priors_from_posterior", "redra
 def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
     """The priors stored in a posterior.
 
-    Boxes from ``constant_data``; each prior file's description, source and published
-    reference from the ``priors`` attribute.
+    Boxes from ``constant_data``; each prior file's description, source, published
+    reference and the distributions of parameters that are not uniform from the ``priors``
+    attribute.
     """
     about = json.loads(post.attrs.get("priors", "{}") or "{}")
     return {
@@ -46,6 +47,7 @@ def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
             description=str(about.get(body, {}).get("description", "")),
             source=str(about.get(body, {}).get("source", "")),
             reference=dict(about.get(body, {}).get("reference", {})),
+            distribution=dict(about.get(body, {}).get("distribution", {})),
         )
         for body in post.bodies
     }
