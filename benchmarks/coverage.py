@@ -26,7 +26,8 @@ speeds share one inertia: the evidence for or against a speed-to-speed random ef
 quantities are each condition's ``I`` and ``M_g`` and each body's ``I`` and ``M_g``; ``m``,
 ``x`` and ``rho`` are not identified by one rotation axis with a box prior and are not listed.
 
-Run:  .venv/bin/python benchmarks/coverage.py [--quick] [--studies N] [--json FILE]
+Run:  .venv/bin/python benchmarks/coverage.py [--quick] [--studies N] [--levels 1%,3%]
+      [--seed S] [--json FILE]
       (full: 40 studies per level, 4 levels; about 25 minutes on 2 cores; --quick: 12)
 """
 
@@ -204,16 +205,27 @@ def _binom_interval(k: int, n: int) -> tuple[float, float]:
     return float(ci.low), float(ci.high)
 
 
-def run(*, quick: bool = False, seed: int = 2026, studies: int | None = None) -> dict:
+def run(
+    *, quick: bool = False, seed: int = 2026, studies: int | None = None, levels: str | None = None
+) -> dict:
     n = studies or (12 if quick else 40)
+    chosen = [name.strip() for name in levels.split(",")] if levels else list(LEVELS)
+    unknown = [name for name in chosen if name not in LEVELS]
+    if unknown:
+        raise SystemExit(f"--levels: unknown level {unknown[0]!r} (expected {', '.join(LEVELS)})")
     t0 = time.perf_counter()
     # every level its own studies: the truths and gain draws of one level tell nothing of another
-    jobs = [(level, seed * 1000 + 100 * k + i) for k, level in enumerate(LEVELS) for i in range(n)]
+    jobs = [
+        (level, seed * 1000 + 100 * k + i)
+        for k, level in enumerate(LEVELS)
+        if level in chosen
+        for i in range(n)
+    ]
     workers = max(1, min(2, os.cpu_count() or 1))
     with ProcessPoolExecutor(workers) as pool:
         results = list(pool.map(one_study, *zip(*jobs, strict=True)))
     table_rows, targets = [], []
-    for level in LEVELS:
+    for level in chosen:
         res = [r for r in results if r["level"] == level]
         scatter = float(np.median([s for r in res for s in r["scatter"]]))
         speed = float(np.mean([p < 0.05 for r in res for p in r["anova_p"]]))
@@ -275,7 +287,10 @@ def main() -> None:
         __doc__,
         seed=2026,
         quick_help="12 studies per level instead of 40",
-        options={"--studies": {"type": int, "default": None, "help": "studies per level"}},
+        options={
+            "--studies": {"type": int, "default": None, "help": "studies per level"},
+            "--levels": {"default": None, "help": "comma-separated levels (default: all)"},
+        },
     )
 
 
