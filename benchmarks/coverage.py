@@ -194,6 +194,7 @@ def one_study(level: str, seed: int) -> dict:
         "scatter": scatter,
         "anova_p": anova,
         "lag_error_ms": float(1e3 * (np.median(lags) - lag)),
+        "lag_ms": 1e3 * lag,
         "converged": bool(post.converged and plain_post.converged and no_gain_post.converged),
     }
 
@@ -273,6 +274,18 @@ def run(
         ("lag", "|lag err| ms", ""),
     ]
     text = table(columns, table_rows)
+    # the same coverage split by the simulated lag: 0-2.5 ms and 2.5-5 ms
+    by_lag = []
+    for lo, hi in ((0.0, 2.5), (2.5, 5.0)):
+        res = [r for r in results if lo <= r["lag_ms"] < hi]
+        if res:
+            cover = [np.mean([r["rows"][q]["inside"] for r in res]) for q in res[0]["rows"]]
+            by_lag.append(
+                f"lag {lo:g}-{hi:g} ms: {len(res)} studies, coverage "
+                f"{min(cover):.3f}-{max(cover):.3f} over the quantities"
+            )
+    if by_lag:
+        text += "\n" + "\n".join(by_lag)
     unconverged = sum(not r["converged"] for r in results)
     text += (
         f"\n{n} studies per level, {len(results)} in all, {unconverged} not converged; "
