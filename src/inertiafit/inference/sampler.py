@@ -202,11 +202,14 @@ class _EmceeChains:
         n_walkers = max(n_walkers, 2 * d + 2)
         mode, cov = laplace_fit(model, rng)
         self.state = _initial_walkers(model, n_walkers, mode, cov, rng)
+        move_set = emcee_moves(moves, mode, cov, proposal_df(model))
+        # the independence move, whose proposal warm_up may re-fit (None for other move sets)
+        self.independence = next((m for m, _ in move_set if isinstance(m, IndependenceMove)), None)
         self.sampler = emcee.EnsembleSampler(
             n_walkers,
             d,
             model.log_prob,
-            moves=emcee_moves(moves, mode, cov, proposal_df(model)),
+            moves=move_set,
             vectorize=True,
         )
         # emcee draws from a copy of numpy's global RandomState taken at construction: seed it.
@@ -247,12 +250,15 @@ class _EmceeChains:
         if self.tuned:
             return False
         self.tuned = True
-        independence = [m for m in self.sampler._moves if isinstance(m, IndependenceMove)]
         flat = kept.reshape(-1, kept.shape[-1])
-        if not independence or len(flat) <= flat.shape[1] or not np.all(np.isfinite(flat)):
+        if (
+            self.independence is None
+            or len(flat) <= flat.shape[1]
+            or not np.all(np.isfinite(flat))
+        ):
             return False
         try:
-            independence[0].refit(flat.mean(0), np.atleast_2d(np.cov(flat, rowvar=False)))
+            self.independence.refit(flat.mean(0), np.atleast_2d(np.cov(flat, rowvar=False)))
         except np.linalg.LinAlgError:
             return False
         self.warmup += self.n_steps
