@@ -374,7 +374,7 @@ def test_calibration_defaults_and_values(lagged_study, tmp_path):
     ("entry", "where", "message"),
     [
         ("[calibration]\ngain = 0.01", "calibration.gain", "unknown key"),
-        ("[calibration]\ntorque_gain_sd = -0.01", "calibration.torque_gain_sd", "[0, 1)"),
+        ("[calibration]\ntorque_gain_sd = -0.01", "calibration.torque_gain_sd", "[0, 0.5)"),
         ("[calibration]\ntorque_gain_sd = 1.0", "calibration.torque_gain_sd", "0.01 = 1 %"),
         ("[calibration]\ntorque_gain_sd = nan", "calibration.torque_gain_sd", "relative SD"),
         ('[calibration]\ntorque_gain_sd = "1%"', "calibration.torque_gain_sd", "relative SD"),

@@ -55,6 +55,7 @@ from inertiafit import physics
 from inertiafit.errors import InputError
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
+from inertiafit.io.manifest import MAX_TORQUE_GAIN_SD
 from inertiafit.physics import GRAVITY, PARAMETERS
 
 __all__ = [
@@ -326,9 +327,10 @@ class Model:
         self.bodies = tuple(self.priors)
         self.conditions = tuple(conditions)
         self.gravity = float(gravity)
-        if not (math.isfinite(torque_gain_sd) and 0 <= torque_gain_sd < 0.5):
+        if not (math.isfinite(torque_gain_sd) and 0 <= torque_gain_sd < MAX_TORQUE_GAIN_SD):
             raise InputError(
-                f"torque_gain_sd: expected a relative SD in [0, 0.5), got {torque_gain_sd!r}"
+                f"torque_gain_sd: expected a relative SD in [0, {MAX_TORQUE_GAIN_SD:g}), "
+                f"got {torque_gain_sd!r}"
             )
         self.torque_gain_sd = float(torque_gain_sd)
         if not self.conditions:

@@ -66,6 +66,7 @@ __all__ = [
     "CALIBRATION_KEYS",
     "DEFAULT_KEYS",
     "KINDS",
+    "MAX_TORQUE_GAIN_SD",
     "ON_TRIAL_ERROR",
     "TOP_KEYS",
     "TRIAL_KEYS",
@@ -98,6 +99,9 @@ DEFAULT_KEYS = ("format", "columns", "units", "calibration", "torque_sign", "opt
 CALIBRATION_KEYS = ("torque_gain_sd", "angle_offset_sd", "lag", "lag_bounds", "max_lag_spread")
 #: Largest lag (s) a manifest may state or search: a lag is milliseconds, not seconds.
 _MAX_LAG = 1.0
+#: Largest relative SD of the torque gain (``[calibration] torque_gain_sd``) the model takes:
+#: beyond 50 % a "calibration" is no calibration.
+MAX_TORQUE_GAIN_SD = 0.5
 TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *DEFAULT_KEYS)
 
 
@@ -387,10 +391,11 @@ def _calibration(value: object, *, where: str) -> Calibration:
             where=f"{here}.torque_gain_sd",
             what="a relative SD (0.01 = 1 %)",
         )
-        if not 0 <= sd < 1:
+        if not 0 <= sd < MAX_TORQUE_GAIN_SD:
             raise _fail(
                 f"{here}.torque_gain_sd",
-                f"expected a relative SD in [0, 1) (0.01 = 1 %), got {table['torque_gain_sd']!r}",
+                f"expected a relative SD in [0, {MAX_TORQUE_GAIN_SD:g}) (0.01 = 1 %), "
+                f"got {table['torque_gain_sd']!r}",
             )
         out["torque_gain_sd"] = sd
     if "angle_offset_sd" in table:
