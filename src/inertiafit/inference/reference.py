@@ -83,6 +83,26 @@ def _midpoints(edges: np.ndarray) -> np.ndarray:
     return 0.5 * (edges[1:] + edges[:-1])
 
 
+def _angle_points(a, b, prior: Prior, n_angle: int, gravity: float):
+    """Each ``(a, b)`` point (1-D arrays) split over ``n_angle`` angles on ``Psi(a, b)``.
+
+    The angles are the midpoints of ``n_angle`` equal parts of ``Psi(a, b)``. Returns the
+    flattened values of every quantity and ``(mass, x, rho)`` as ``(n, n_angle)`` arrays.
+    """
+    aa = np.repeat(np.asarray(a)[:, None], n_angle, 1)
+    bb = np.repeat(np.asarray(b)[:, None], n_angle, 1)
+    psi = angles_at(aa, bb, prior, (np.arange(n_angle) + 0.5) / n_angle)
+    mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
+    values = {
+        "mass": mass.ravel(),
+        "com_distance": x.ravel(),
+        "radius_of_gyration": rho.ravel(),
+        "inertia": bb.ravel(),
+        "gravity_moment": gravity * aa.ravel(),
+    }
+    return values, (mass, x, rho)
+
+
 def _angle_weights(prior: Prior, mass, x, rho) -> np.ndarray:
     """How each ``(a, b)`` point's weight splits over its angles (rows of ``(n, n_angle)``).
 
@@ -289,21 +309,10 @@ def star_reference(
         values = {"inertia": B[keep], "gravity_moment": g * A[keep]}
         weights = w[keep]
         if n_angle:
-            aa = np.repeat(A[keep][:, None], n_angle, 1)
-            bb = np.repeat(B[keep][:, None], n_angle, 1)
-            # psi on Psi(a, b): the midpoints of n_angle equal parts of it, weighted by the
-            # prior along the curve (equal weights for a box)
+            # psi on Psi(a, b), weighted by the prior along the curve (equal for a box)
             prior = model.priors[name]
-            psi = angles_at(aa, bb, prior, (np.arange(n_angle) + 0.5) / n_angle)
-            mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
+            values, (mass, x, rho) = _angle_points(A[keep], B[keep], prior, n_angle, g)
             split = _angle_weights(prior, mass, x, rho)
-            values = {
-                "mass": mass.ravel(),
-                "com_distance": x.ravel(),
-                "radius_of_gyration": rho.ravel(),
-                "inertia": bb.ravel(),
-                "gravity_moment": g * aa.ravel(),
-            }
             weights = (weights[:, None] * split).ravel()
         out[name] = ReferencePosterior(values=values, weights=weights)
     return out
@@ -369,23 +378,12 @@ def gain_reference(
         )  # |Psi| / a: the box's density, times the mean of the prior along Psi below
     keep = np.isfinite(log_w)
     w = np.exp(log_w[keep] - log_w[keep].max())
-    aa = np.repeat(a[keep][:, None], n_angle, 1)
-    bb = np.repeat(b[keep][:, None], n_angle, 1)
-    psi = angles_at(aa, bb, prior, (np.arange(n_angle) + 0.5) / n_angle)
-    mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
-    gain = np.repeat(np.exp(ELL[keep])[:, None], n_angle, 1)
+    values, (mass, x, rho) = _angle_points(a[keep], b[keep], prior, n_angle, g)
+    values["torque_gain"] = np.repeat(np.exp(ELL[keep]), n_angle)
     if prior.is_box:
         weights = np.repeat(w / w.sum() / n_angle, n_angle)
     else:  # each angle carries |Psi| / (a n_angle) times the prior density there
         log_p = prior.log_density(mass, x, rho, check_support=False)
         weights = (w[:, None] * np.exp(log_p - log_p.max())).ravel()
         weights = weights / weights.sum()
-    values = {
-        "mass": mass.ravel(),
-        "com_distance": x.ravel(),
-        "radius_of_gyration": rho.ravel(),
-        "inertia": bb.ravel(),
-        "gravity_moment": g * aa.ravel(),
-        "torque_gain": gain.ravel(),
-    }
     return ReferencePosterior(values=values, weights=weights)
