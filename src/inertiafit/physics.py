@@ -23,7 +23,9 @@ __all__ = [
     "inertia",
     "maximum_com_distance",
     "minimum_mass",
+    "moved_moments",
     "parameters_from_identified",
+    "point_moments",
 ]
 
 #: Standard gravity used by the paper (m/s^2); every function takes ``gravity=`` to change it.
@@ -111,6 +113,26 @@ def curve_at_mass(
     x = a / m
     rho = np.sqrt(np.clip(b / m - x * x, 0.0, None))
     return x, rho
+
+
+def moved_moments(
+    first_moment: ArrayLike, inertia: ArrayLike, mass: ArrayLike, offset: ArrayLike
+) -> tuple[NDArray, NDArray]:
+    """``a`` and ``I`` of a body moved ``offset`` further along the lever (``x -> x + d``).
+
+    ``a(d) = m (x + d) = a + m d`` and ``I(d) = m (rho^2 + (x + d)^2) = I + 2 a d + m d^2``:
+    a second mounting adds the mass to what the first one identifies.
+    """
+    a, b, m, d = (np.asarray(v, dtype=float) for v in (first_moment, inertia, mass, offset))
+    return a + m * d, b + 2 * a * d + m * d * d
+
+
+def point_moments(
+    mass: ArrayLike, com_distance: ArrayLike, radius_of_gyration: ArrayLike = 0.0
+) -> tuple[NDArray, NDArray]:
+    """``a = m x`` (kg m) and ``I = m (rho^2 + x^2)`` (kg m^2) of a known body (an added mass)."""
+    m, x, r = (np.asarray(v, dtype=float) for v in (mass, com_distance, radius_of_gyration))
+    return m * x, m * (r * r + x * x)
 
 
 def parameters_from_identified(

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inertiafit.inference.model import Model, feasible_measure, log_curve_integral
+from inertiafit.inference.model import Model, feasible_measure
 from inertiafit.inference.moves import StudentTProposal
 from inertiafit.inference.observations import Observation
 from inertiafit.stats import student_t_draws, student_t_logpdf
@@ -80,6 +80,8 @@ def star_structure(model: Model) -> Star | None:
     measured in some condition without leaves, with both observables in every such condition:
     their evidence anchors the shared proposal.
     """
+    if any(c.offset_body or c.has_added for c in model.conditions):
+        return None  # a moved body or a known added mass: the joint sampler handles those
     member = model.membership.astype(bool)  # (conditions, bodies)
     n_cond_of_body = member.sum(0)
     candidates = [j for j in range(len(model.bodies)) if n_cond_of_body[j] == 1]
@@ -168,7 +170,9 @@ class BlockedGibbs:
         self.has_gain = model.has_gain
         self.leaf_priors = [model.priors[model.bodies[j]] for j in star.leaves]
         self.boxes = _Boxes(self.leaf_priors)
-        self.all_boxes = all(p.is_box for p in self.leaf_priors)
+        self.all_boxes = all(p.is_box for p in self.leaf_priors) and not any(
+            j in model.curve_bodies for j in star.leaves
+        )
         self.accepted = np.zeros(3)
         self.proposed = np.zeros(3)
 
@@ -180,6 +184,11 @@ class BlockedGibbs:
             [model.conditions[ci] for ci in star.shared_conditions],
             gravity=model.gravity,
             torque_gain_sd=model.torque_gain_sd,
+            measured={
+                model.bodies[j]: model.measured[model.bodies[j]]
+                for j in star.shared
+                if model.bodies[j] in model.measured
+            },
         )
 
     @staticmethod
@@ -223,12 +232,8 @@ class BlockedGibbs:
                 log_meas = np.log(feasible_measure(a_ok, b_ok, self.boxes))
             else:  # a leaf that is not a box: its prior integrated along the curve
                 log_meas = np.empty(np.shape(a_ok))
-                for i, prior in enumerate(self.leaf_priors):
-                    if prior.is_box:
-                        col = np.log(feasible_measure(a_ok[..., i], b_ok[..., i], prior))
-                    else:
-                        col = log_curve_integral(a_ok[..., i], b_ok[..., i], prior)
-                    log_meas[..., i] = col
+                for i, j in enumerate(self.star.leaves):
+                    log_meas[..., i] = self.model.body_log_curve(j, a_ok[..., i], b_ok[..., i])
             return np.where(ok, log_meas - np.log(a_ok) + shift, -np.inf)
 
     def _shared_totals(self, s_log) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ import numpy as np
 import xarray as xr
 
 from inertiafit.inference.evidence import evidence_from_numbers
-from inertiafit.inference.model import Condition, Model
+from inertiafit.inference.model import MEASURED, Condition, Model
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.sampler import SamplerSettings, sample
 from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED, UNITS
@@ -46,7 +46,25 @@ def _observation_summary(model: Model) -> xr.Dataset:
             vals = [float(getattr(o, field)) if o else math.nan for o in rows]
             data[f"{obs_name}_{field}"] = ("condition", np.array(vals))
     data["coupling"] = ("condition", np.array([c.coupling for c in model.conditions], float))
-    return xr.Dataset(data, coords={"condition": labels})
+    conds = model.conditions
+    data["offset"] = ("condition", np.array([c.offset for c in conds], float))
+    data["offset_body"] = ("condition", np.array([c.offset_body for c in conds], dtype=str))
+    data["added_first_moment"] = ("condition", np.array([c.added_first_moment for c in conds]))
+    data["added_inertia"] = ("condition", np.array([c.added_inertia for c in conds], float))
+    out = xr.Dataset(data, coords={"condition": labels})
+    for key in MEASURED:  # direct measurements per body (NaN where none)
+        for field in ("center", "total_scale"):
+            vals = [
+                float(getattr(model.measured[b][key], field))
+                if key in model.measured.get(b, {})
+                else math.nan
+                for b in model.bodies
+            ]
+            name = f"measured_{key}" if field == "center" else f"measured_{key}_sd"
+            out[name] = xr.DataArray(
+                np.array(vals), dims="body", coords={"body": list(model.bodies)}
+            )
+    return out
 
 
 def _observed(model: Model) -> xr.Dataset:
@@ -68,6 +86,15 @@ def _observed(model: Model) -> xr.Dataset:
             coords={f"{obs_name}_condition": (dim, np.array(conds, dtype=str))},
             attrs={"units": UNITS[obs_name]},
         )
+    for key, dim in (("mass", "mass_body"), ("com_distance", "com_body")):
+        bodies = model.measured_bodies(key)
+        if bodies:
+            out[key] = xr.DataArray(
+                np.array([model.measured[b][key].center for b in bodies]),
+                dims=dim,
+                coords={dim: bodies},
+                attrs={"units": UNITS[key]},
+            )
     return xr.Dataset(out)
 
 
@@ -114,7 +141,9 @@ def build_tree(
         prior["torque_gain"] = xr.DataArray(
             pd_["torque_gain"][None], dims=("chain", "draw"), attrs={"units": "1"}
         )
-    terms = model.log_likelihood_terms(run.chain)
+    terms = model.log_likelihood_terms(
+        run.chain, run.parameters["mass"] if model.has_extra else None
+    )
     ll_vars = {}
     for obs_name in ("inertia", "gravity_moment"):
         labels = [c.label for c in model.conditions if getattr(c, obs_name)]
@@ -123,6 +152,13 @@ def build_tree(
                 terms[obs_name],
                 dims=("chain", "draw", f"{obs_name}_condition"),
                 coords={f"{obs_name}_condition": labels},
+            )
+    for key, dim in (("mass", "mass_body"), ("com_distance", "com_body")):
+        if key in terms:  # a weighed mass, a balance point
+            ll_vars[key] = xr.DataArray(
+                terms[key],
+                dims=("chain", "draw", dim),
+                coords={dim: model.measured_bodies(key)},
             )
     log_likelihood = xr.Dataset(ll_vars, coords={"chain": coords["chain"], "draw": coords["draw"]})
     sample_stats = xr.Dataset(

@@ -40,6 +40,23 @@ Systematic errors
   *observed-scale* values, ``gamma`` times the true ones (what the data identify), and
   ``log gamma ~ N(0, torque_gain_sd^2)`` is one more coordinate; the true values are the
   observed ones over ``gamma``, so the box prior is evaluated at ``z - log gamma``.
+
+Extra information
+-----------------
+Evidence that involves the body's own ``m``, ``x`` or ``rho`` — a weighed mass, a balance-point
+centre of mass (``Model(measured=...)``), a second mounting that moves the body ``d`` along
+the lever (``Condition(offset_body=, offset=)``: ``a + m d``, ``I + 2 a d + m d^2``) — is a
+function of ``psi`` for fixed ``(a, b)`` (every term is a function of ``m = a^2 / (b sin^2 psi)``
+and ``x = a / m``). It multiplies the prior along the curve: the angle's conditional density
+is the prior times that evidence, still 1-D and drawn exactly, and the marginal of the sampled
+coordinates integrates both. Where the evidence is sharp (a scale reads to 0.3 %), the angles
+it allows fill a small part of ``Psi(a, b)``, so the grid is cut to the masses each term allows
+(all but :data:`_WINDOW_TAIL` of its likelihood) and refined over the narrowest term's core:
+:data:`N_EXTRA_CELLS` equal cells over each, merged. A moved body's condition involves the other
+bodies it is mounted with, so its evidence is evaluated per row of the sampled coordinates; at
+most one body of a condition is moved, so the angles stay conditionally independent. Known
+added masses (``Condition(added_first_moment=, added_inertia=)``) add known ``a`` and ``I`` to
+their condition's totals (times the torque gain, like everything the torque channel sees).
 """
 
 from __future__ import annotations
@@ -59,6 +76,7 @@ from inertiafit.io.manifest import MAX_TORQUE_GAIN_SD
 from inertiafit.physics import GRAVITY, PARAMETERS
 
 __all__ = [
+    "MEASURED",
     "N_ANGLE_CELLS",
     "Box",
     "Condition",
@@ -77,6 +95,17 @@ HALF_PI = np.pi / 2
 #: Equal cells in the fraction of ``Psi(a, b)`` on which a prior that is not a box is integrated
 #: and its angle drawn (module docstring, "Priors that are not a box").
 N_ANGLE_CELLS = 128
+
+#: Quantities of a body that can be measured directly (a scale; a balance point).
+MEASURED = ("mass", "com_distance")
+
+#: Cells of the angle grid of a body whose angle meets evidence: uniform over the window where
+#: the evidence allows the body, and as many again over the narrowest term's core.
+N_EXTRA_CELLS = 96
+
+#: Tail of each term's likelihood left outside that window, and the core's half-width in SDs.
+_WINDOW_TAIL = 1e-8
+_CORE_SDS = 8.0
 
 #: Rows of ``(a, b)`` handled at once on the angle grid (bounds the memory of one call).
 _ROWS_PER_BLOCK = 512
@@ -275,6 +304,14 @@ class Condition:
         ``dI/dM_g`` of the shared gravity-model error (kg m^2 per N m): the inertia evidence
         is evaluated at ``I + coupling * (M_g_obs - M_g)``, ``M_g_obs`` the gravity moment's
         centre. 0 when the errors are independent.
+    offset_body, offset : str, float
+        A second mounting: body ``offset_body`` sits ``offset`` metres further out along the
+        lever than where its ``(m, x, rho)`` are defined (``x -> x + offset``), so it adds
+        ``a + m d`` and ``I + 2 a d + m d^2`` (:func:`inertiafit.physics.moved_moments`).
+        At most one body of a condition is moved; ``""`` for none.
+    added_first_moment, added_inertia : float
+        ``m x`` (kg m) and ``I`` (kg m^2) of known masses mounted with the bodies
+        (:func:`inertiafit.physics.point_moments`), added to the totals.
     """
 
     bodies: tuple[str, ...]
@@ -282,14 +319,44 @@ class Condition:
     gravity_moment: Observation | None = None
     label: str = ""
     coupling: float = 0.0
+    offset_body: str = ""
+    offset: float = 0.0
+    added_first_moment: float = 0.0
+    added_inertia: float = 0.0
 
     def __post_init__(self):
         if not self.label:
             object.__setattr__(self, "label", "+".join(self.bodies))
+        where = f"condition '{self.label}'"
         if not math.isfinite(self.coupling):
-            raise InputError(f"condition '{self.label}': coupling must be finite")
+            raise InputError(f"{where}: coupling must be finite")
         if self.coupling and self.gravity_moment is None:
-            raise InputError(f"condition '{self.label}': coupling needs a gravity moment")
+            raise InputError(f"{where}: coupling needs a gravity moment")
+        if self.offset_body:
+            if self.offset_body not in self.bodies:
+                raise InputError(
+                    f"{where}: offset body '{self.offset_body}' is not mounted in it "
+                    f"(bodies: {', '.join(self.bodies)})"
+                )
+            if not (math.isfinite(self.offset) and self.offset != 0):
+                raise InputError(
+                    f"{where}: offset of '{self.offset_body}': expected a non-zero distance "
+                    f"in m, got {self.offset!r}"
+                )
+        elif self.offset:
+            raise InputError(f"{where}: an offset needs the body it moves (offset_body)")
+        if not math.isfinite(self.added_first_moment):
+            raise InputError(f"{where}: added_first_moment must be finite (kg m)")
+        if not (math.isfinite(self.added_inertia) and self.added_inertia >= 0):
+            raise InputError(
+                f"{where}: added_inertia: expected a finite value >= 0 (kg m^2), "
+                f"got {self.added_inertia!r}"
+            )
+
+    @property
+    def has_added(self) -> bool:
+        """Whether known masses are mounted with the bodies."""
+        return bool(self.added_first_moment or self.added_inertia)
 
     def inertia_at(self, inertia, gravity_moment):
         """Where the inertia evidence is evaluated for true totals ``I`` and ``M_g`` (arrays)."""
@@ -313,6 +380,10 @@ class Model:
     torque_gain_sd : float
         SD of the log torque gain (relative SD of the gain; 0: not modelled). See the module
         docstring, "Systematic errors".
+    measured : mapping of str to mapping of str to Observation, optional
+        Direct measurements of a body's ``mass`` (kg; a scale) or ``com_distance`` (m, from the
+        joint axis in the body's own mounting; a balance point), by body name. See the module
+        docstring, "Extra information".
     """
 
     def __init__(
@@ -322,6 +393,7 @@ class Model:
         *,
         gravity: float = GRAVITY,
         torque_gain_sd: float = 0.0,
+        measured: Mapping[str, Mapping[str, Observation]] | None = None,
     ) -> None:
         self.priors = dict(priors)
         self.bodies = tuple(self.priors)
@@ -354,6 +426,34 @@ class Model:
         self._gravity = [
             (ci, c.gravity_moment) for ci, c in enumerate(self.conditions) if c.gravity_moment
         ]
+        self.measured: dict[str, dict[str, Observation]] = {}
+        for body, table in (measured or {}).items():
+            if body not in index:
+                raise InputError(f"measured: unknown body '{body}'")
+            for key, obs in table.items():
+                if key not in MEASURED:
+                    raise InputError(
+                        f"measured.{body}: unknown quantity '{key}' (expected one of "
+                        f"{', '.join(MEASURED)})"
+                    )
+                if not isinstance(obs, Observation):
+                    raise InputError(f"measured.{body}.{key}: expected an Observation")
+            if table:
+                self.measured[body] = dict(table)
+        #: Conditions whose evidence involves a body's mass (a moved body), by body index.
+        self.moved_conditions: dict[int, list[int]] = {}
+        for ci, cond in enumerate(self.conditions):
+            if cond.offset_body:
+                self.moved_conditions.setdefault(index[cond.offset_body], []).append(ci)
+        #: Bodies whose angle ``psi`` meets evidence (module docstring, "Extra information").
+        self.curve_bodies = tuple(
+            k
+            for k, body in enumerate(self.bodies)
+            if body in self.measured or k in self.moved_conditions
+        )
+        self._added = np.array(
+            [[c.added_first_moment, c.added_inertia] for c in self.conditions], dtype=float
+        )
 
     @property
     def has_gain(self) -> bool:
@@ -401,6 +501,36 @@ class Model:
             z[..., -1] = log_g
         return z
 
+    @property
+    def has_extra(self) -> bool:
+        """Whether any evidence involves the angle ``psi`` (a measured or a moved body)."""
+        return bool(self.curve_bodies)
+
+    def _totals(self, z):
+        """Observed-scale totals of every condition, ``(..., C)`` each, with added masses.
+
+        A moved body enters with its own ``(a, b)`` only; :meth:`_moved_lines` adds the part
+        that depends on its mass.
+        """
+        a, b = self.split(z)
+        total_a = a @ self.membership.T
+        total_b = b @ self.membership.T
+        if self._added.any():
+            gain = np.exp(self.log_gain(z))[..., None]
+            total_a = total_a + gain * self._added[:, 0]
+            total_b = total_b + gain * self._added[:, 1]
+        return total_a, total_b
+
+    def _condition_log_likelihood(self, ci: int, total_a, total_b):
+        """Log-likelihood of condition ``ci``'s evidence at observed-scale totals (arrays)."""
+        cond = self.conditions[ci]
+        out = 0.0
+        if cond.gravity_moment is not None:
+            out = out + cond.gravity_moment.logpdf(self.gravity * total_a)
+        if cond.inertia is not None:
+            out = out + cond.inertia.logpdf(cond.inertia_at(total_b, self.gravity * total_a))
+        return out
+
     def log_prior(self, z):
         """Log density of the marginal prior of the sampled coordinates, up to a constant.
 
@@ -421,12 +551,32 @@ class Model:
             out = out - 0.5 * (self.log_gain(z) / self.torque_gain_sd) ** 2
         return out
 
-    def log_likelihood_terms(self, z) -> dict[str, np.ndarray]:
-        """Pointwise log-likelihood: ``inertia`` and ``gravity_moment``, each ``(..., n_obs)``."""
-        a, b = self.split(z)
-        total_a = a @ self.membership.T
-        total_b = b @ self.membership.T
-        lead = np.shape(a)[:-1]
+    def log_likelihood_terms(self, z, mass=None) -> dict[str, np.ndarray]:
+        """Pointwise log-likelihood of every piece of evidence, each ``(..., n_obs)``.
+
+        ``inertia`` and ``gravity_moment`` per condition that has them; with measured bodies
+        ``mass`` and ``com_distance`` per body measured. Evidence that involves a body's mass
+        (a moved body, a measured one) needs the bodies' true masses ``mass`` (``(..., K)``,
+        from :meth:`parameters`); without them only conditions without a moved body can be
+        evaluated (``mass=None`` with such evidence is an error).
+        """
+        total_a, total_b = self._totals(z)
+        lead = np.shape(total_a)[:-1]
+        if mass is None and self.has_extra:
+            raise ValueError("log_likelihood_terms: this model's evidence needs the masses")
+        if mass is not None:
+            mass = np.asarray(mass, float)
+            gain = np.exp(self.log_gain(z))
+            a, _ = self.split(z)
+            index = {b: k for k, b in enumerate(self.bodies)}
+            for ci, cond in enumerate(self.conditions):
+                if cond.offset_body:
+                    k = index[cond.offset_body]
+                    d = cond.offset
+                    total_a = total_a.copy()
+                    total_b = total_b.copy()
+                    total_a[..., ci] += gain * mass[..., k] * d
+                    total_b[..., ci] += 2 * d * a[..., k] + gain * mass[..., k] * d * d
         inertia = [
             obs.logpdf(
                 self.conditions[ci].inertia_at(total_b[..., ci], self.gravity * total_a[..., ci])
@@ -434,20 +584,292 @@ class Model:
             for ci, obs in self._inertia
         ]
         grav = [obs.logpdf(self.gravity * total_a[..., ci]) for ci, obs in self._gravity]
-        return {
+        out = {
             "inertia": np.stack(inertia, -1) if inertia else np.zeros((*lead, 0)),
             "gravity_moment": np.stack(grav, -1) if grav else np.zeros((*lead, 0)),
         }
+        if self.measured and mass is not None:
+            true_a, _ = self.true_identified(z)
+            index = {b: k for k, b in enumerate(self.bodies)}
+            for key in MEASURED:
+                cols = []
+                for body, table in self.measured.items():
+                    if key in table:
+                        k = index[body]
+                        value = mass[..., k] if key == "mass" else true_a[..., k] / mass[..., k]
+                        cols.append(table[key].logpdf(value))
+                if cols:
+                    out[key] = np.stack(cols, -1)
+        return out
+
+    # -- evidence on the angle ---------------------------------------------------------------
+    def _curve_terms(self, z, k: int, a_k):
+        """The evidence on body ``k``'s angle for rows ``z`` (2-D; ``a_k`` its true ``a``).
+
+        Returns a list of ``(logpdf(mass, x) -> (rows, n), (lo, hi), (core_lo, core_hi))``: each
+        term's log-likelihood on a grid of masses and CoM distances, the interval of masses
+        outside which it holds less than :data:`_WINDOW_TAIL` of its mass, and its core
+        (:data:`_CORE_SDS` SDs), all ``(rows,)``.
+        """
+        body = self.bodies[k]
+        terms = []
+
+        def interval(center, half, slope, intercept):
+            # masses where intercept + slope * m lies in center +- half
+            lo = (center - half - intercept) / slope
+            hi = (center + half - intercept) / slope
+            return np.minimum(lo, hi), np.maximum(lo, hi)
+
+        for key, obs in self.measured.get(body, {}).items():
+            h, core = obs.quantile_halfwidth(_WINDOW_TAIL), _CORE_SDS * obs.total_scale
+            if key == "mass":
+                ones = np.ones_like(a_k)
+                terms.append(
+                    (
+                        lambda m, _x, obs=obs: obs.logpdf(m),
+                        (ones * (obs.center - h), ones * (obs.center + h)),
+                        (ones * (obs.center - core), ones * (obs.center + core)),
+                    )
+                )
+            else:  # com_distance: x = a / m, decreasing in m
+                with np.errstate(divide="ignore"):
+                    win = (
+                        a_k / (obs.center + h),
+                        np.where(obs.center > h, a_k / (obs.center - h), np.inf),
+                    )
+                    cw = (
+                        a_k / (obs.center + core),
+                        np.where(obs.center > core, a_k / (obs.center - core), np.inf),
+                    )
+                terms.append((lambda _m, x, obs=obs: obs.logpdf(x), win, cw))
+        if k in self.moved_conditions:
+            total_a, total_b = self._totals(z)
+            gain = np.exp(self.log_gain(z))
+            a_obs, _ = self.split(z)
+            for ci in self.moved_conditions[k]:
+                cond = self.conditions[ci]
+                d = cond.offset
+                ta = total_a[:, ci]
+                tb = total_b[:, ci] + 2 * d * a_obs[:, k]
+                slope_a, slope_b = gain * d, gain * d * d
+                lo, hi = np.zeros_like(ta), np.full_like(ta, np.inf)
+                core_lo, core_hi = lo, hi
+                g = self.gravity
+                if cond.gravity_moment is not None:
+                    obs = cond.gravity_moment
+                    lo, hi = interval(
+                        obs.center, obs.quantile_halfwidth(_WINDOW_TAIL), g * slope_a, g * ta
+                    )
+                    core_lo, core_hi = interval(
+                        obs.center, _CORE_SDS * obs.total_scale, g * slope_a, g * ta
+                    )
+                if cond.inertia is not None:
+                    # evidence at B(m) + coupling (M_c - g A(m)): linear in m
+                    kappa = cond.coupling
+                    m_c = cond.gravity_moment.center if cond.gravity_moment is not None else 0.0
+                    intercept = tb + kappa * (m_c - g * ta)
+                    slope = slope_b - kappa * g * slope_a
+                    obs = cond.inertia
+                    ilo, ihi = interval(
+                        obs.center, obs.quantile_halfwidth(_WINDOW_TAIL), slope, intercept
+                    )
+                    clo, chi = interval(obs.center, _CORE_SDS * obs.total_scale, slope, intercept)
+                    lo, hi = np.maximum(lo, ilo), np.minimum(hi, ihi)
+                    if np.all(chi - clo < core_hi - core_lo):
+                        core_lo, core_hi = clo, chi
+
+                def moved(m, _x, ci=ci, ta=ta, tb=tb, sa=slope_a, sb=slope_b):
+                    return self._condition_log_likelihood(
+                        ci, ta[:, None] + sa[:, None] * m, tb[:, None] + sb[:, None] * m
+                    )
+
+                terms.append((moved, (lo, hi), (core_lo, core_hi)))
+        return terms
+
+    def _curve_grid(self, z, k: int, a, b):
+        """Body ``k``'s angle grid for rows ``z``: ``log f``, ``log`` cell width, cell edges.
+
+        ``a``, ``b`` are the body's true values (rows); ``z`` is needed only when the body is
+        moved in some condition (its evidence involves the other bodies).
+
+        ``f`` is the prior density along the curve times the evidence on the angle, at the
+        midpoints of cells laid over ``Psi(a, b)`` cut to where the evidence allows the body:
+        :data:`N_EXTRA_CELLS` equal cells over that window and as many over the narrowest
+        term's core, merged. Returns three ``(rows, cells)`` arrays.
+        """
+        prior = self.priors[self.bodies[k]]
+        terms = self._curve_terms(z, k, a)
+        m_lo = np.zeros_like(a)
+        m_hi = np.full_like(a, np.inf)
+        core = None
+        for _, (lo, hi), (clo, chi) in terms:
+            m_lo, m_hi = np.maximum(m_lo, lo), np.minimum(m_hi, hi)
+            if core is None or np.all(chi - clo < core[1] - core[0]):
+                core = (clo, chi)
+        assert core is not None
+
+        def angle(m):  # psi of the mass m on the curve through (a, b): sin^2 psi = a^2/(b m)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.arcsin(np.sqrt(np.clip(a * a / (b * np.maximum(m, 0.0)), 0.0, 1.0)))
+
+        w_lo, w_hi = angle(m_hi), angle(m_lo)  # psi falls as m grows
+        c_lo, c_hi = angle(core[1]), angle(core[0])
+        lo1, hi1, lo2, hi2 = feasible_angles(a, b, prior)
+        lo1, hi1 = np.maximum(lo1, w_lo), np.minimum(hi1, w_hi)
+        lo2, hi2 = np.maximum(lo2, w_lo), np.minimum(hi2, w_hi)
+        len1, len2 = np.maximum(hi1 - lo1, 0.0), np.maximum(hi2 - lo2, 0.0)
+        total = len1 + len2
+        ok = (total > 0) & (m_hi > m_lo)
+        safe = np.where(ok, total, 1.0)
+
+        def fraction(psi):
+            return (np.clip(psi - lo1, 0.0, len1) + np.clip(psi - lo2, 0.0, len2)) / safe
+
+        n = N_EXTRA_CELLS
+        base = np.linspace(0.0, 1.0, n + 1)
+        f_lo, f_hi = fraction(c_lo), fraction(c_hi)
+        edges = np.concatenate(
+            [
+                np.broadcast_to(base, (len(a), n + 1)),
+                f_lo[:, None] + (f_hi - f_lo)[:, None] * base[None, :],
+            ],
+            axis=1,
+        )
+        edges.sort(axis=1)
+        u = 0.5 * (edges[:, 1:] + edges[:, :-1]) * safe[:, None]
+        width = np.diff(edges, axis=1) * safe[:, None]
+        psi = self._angle_at(u, lo1, len1, lo2)
+        aa = np.where(ok, a, 1.0)[:, None]
+        bb = np.where(ok, b, 1.0)[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
+            log_f = prior.log_density(mass, x, rho, check_support=False)
+            for term, _, _ in terms:
+                log_f = log_f + term(mass, x)
+            log_w = np.log(width)
+        log_f = np.where(ok[:, None] & (width > 0), log_f, -np.inf)
+        return log_f, log_w, (edges * safe[:, None], lo1, len1, lo2)
+
+    @staticmethod
+    def _angle_at(u, lo1, len1, lo2):
+        """The angle ``u`` radians into the two intervals laid end to end (rows of ``u``)."""
+        return np.where(u < len1[:, None], lo1[:, None] + u, (lo2 - len1)[:, None] + u)
+
+    def _log_marginal(self, z):
+        """:meth:`log_prior` with the evidence on each angle integrated along with the prior."""
+        z = np.atleast_2d(z)
+        a, b = self.true_identified(z)
+        out = np.zeros(len(z))
+        for k, body in enumerate(self.bodies):
+            prior = self.priors[body]
+            if k in self.curve_bodies:
+                out = out + self._log_curve_evidence(z, k, a[:, k], b[:, k])
+            elif prior.is_box:
+                with np.errstate(divide="ignore"):
+                    out = out + np.log(feasible_measure(a[:, k], b[:, k], prior))
+            else:
+                out = out + log_curve_integral(a[:, k], b[:, k], prior)
+        out = out + np.log(b).sum(-1)
+        if self.has_gain:
+            out = out - 0.5 * (self.log_gain(z) / self.torque_gain_sd) ** 2
+        return out
+
+    def _log_curve_evidence(self, z, k: int, a, b):
+        """``log`` of the integral over ``psi`` of body ``k``'s prior times its evidence (rows)."""
+        out = np.empty(len(a))
+        for i in range(0, len(a), _ROWS_PER_BLOCK):
+            sl = slice(i, i + _ROWS_PER_BLOCK)
+            log_f, log_w, _ = self._curve_grid(None if z is None else z[sl], k, a[sl], b[sl])
+            top = np.max(log_f, -1)
+            safe = np.where(np.isfinite(top), top, 0.0)
+            with np.errstate(divide="ignore"):
+                out[sl] = np.where(
+                    np.isfinite(top),
+                    safe + np.log(np.exp(log_f + log_w - safe[:, None]).sum(-1)),
+                    -np.inf,
+                )
+        return out
+
+    def body_log_curve(self, k: int, first_moment, inertia):
+        """``log`` integral over ``psi`` of body ``k``'s prior times its own evidence.
+
+        For a body whose angle meets only its own measurements (not moved in any condition):
+        :func:`log_identified_prior` plus ``log a`` with the measurements included; for other
+        bodies, :func:`log_curve_integral` (or ``log |Psi|`` for a box). True ``a``, ``b``.
+        """
+        a, b = np.broadcast_arrays(np.asarray(first_moment, float), np.asarray(inertia, float))
+        prior = self.priors[self.bodies[k]]
+        if k in self.moved_conditions:
+            raise ValueError(f"body '{self.bodies[k]}' is moved: its evidence needs every body")
+        if k in self.curve_bodies:
+            flat = self._log_curve_evidence(None, k, a.ravel(), b.ravel())
+            return flat.reshape(a.shape)
+        if prior.is_box:
+            with np.errstate(divide="ignore"):
+                return np.log(feasible_measure(a, b, prior))
+        return log_curve_integral(a, b, prior)
+
+    def _draw_curve_angles(self, z, k: int, rng: np.random.Generator):
+        """Body ``k``'s angle drawn exactly from its conditional (prior times the evidence)."""
+        z = np.asarray(z)
+        lead = z.shape[:-1]
+        flat = z.reshape(-1, z.shape[-1])
+        true_a, true_b = self.true_identified(flat)
+        v = rng.uniform(size=len(flat))
+        out = np.empty(len(flat))
+        for i in range(0, len(flat), _ROWS_PER_BLOCK):
+            sl = slice(i, i + _ROWS_PER_BLOCK)
+            log_f, log_w, (edges, lo1, len1, lo2) = self._curve_grid(
+                flat[sl], k, true_a[sl, k], true_b[sl, k]
+            )
+            top = log_f.max(-1, keepdims=True)
+            dens = np.exp(log_f - np.where(np.isfinite(top), top, 0.0))
+            w = dens * np.exp(log_w)
+            cdf = np.cumsum(w, -1)
+            target = v[sl] * cdf[:, -1]
+            cell = np.minimum((cdf <= target[:, None]).sum(-1), w.shape[1] - 1)
+            rows = np.arange(len(cell))
+            below = np.where(cell > 0, cdf[rows, np.maximum(cell - 1, 0)], 0.0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                within = np.clip((target - below) / w[rows, cell], 0.0, 1.0)
+            within = np.nan_to_num(within, nan=0.5)
+            u = edges[rows, cell] + within * (edges[rows, cell + 1] - edges[rows, cell])
+            out[sl] = self._angle_at(u[:, None], lo1, len1, lo2)[:, 0]
+        return out.reshape(lead)
+
+    def measured_bodies(self, key: str) -> list[str]:
+        """Bodies with a measured ``key`` (``mass`` or ``com_distance``), in model order."""
+        return [b for b in self.bodies if key in self.measured.get(b, {})]
 
     def log_prob(self, z):
-        """Log posterior density of ``(log a, log b)`` up to a constant; vectorised over rows."""
+        """Log posterior density of the sampled coordinates up to a constant (rows).
+
+        The evidence that involves ``psi`` (measured and moved bodies) is integrated over it
+        together with the prior (module docstring, "Extra information").
+        """
         z = np.atleast_2d(z)
-        lp = self.log_prior(z)
+        lp = self.log_prior(z) if not self.has_extra else self._log_marginal(z)
         ok = np.isfinite(lp)
         out = np.full(lp.shape, -np.inf)
         if ok.any():
-            terms = self.log_likelihood_terms(z[ok])
-            out[ok] = lp[ok] + terms["inertia"].sum(-1) + terms["gravity_moment"].sum(-1)
+            total_a, total_b = self._totals(z[ok])
+            g = self.gravity
+            inertia = [
+                obs.logpdf(self.conditions[ci].inertia_at(total_b[:, ci], g * total_a[:, ci]))
+                for ci, obs in self._inertia
+                if not self.conditions[ci].offset_body
+            ]
+            grav = [
+                obs.logpdf(g * total_a[:, ci])
+                for ci, obs in self._gravity
+                if not self.conditions[ci].offset_body
+            ]
+            n = int(ok.sum())
+            out[ok] = (
+                lp[ok]
+                + (np.stack(inertia, -1) if inertia else np.zeros((n, 0))).sum(-1)
+                + (np.stack(grav, -1) if grav else np.zeros((n, 0))).sum(-1)
+            )
         return out
 
     def parameters(self, z, rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -460,7 +882,10 @@ class Model:
         a, b = self.true_identified(z)
         psi = np.empty_like(a)
         for k, body in enumerate(self.bodies):
-            psi[..., k] = draw_angles(a[..., k], b[..., k], self.priors[body], rng)
+            if k in self.curve_bodies:
+                psi[..., k] = self._draw_curve_angles(z, k, rng)
+            else:
+                psi[..., k] = draw_angles(a[..., k], b[..., k], self.priors[body], rng)
         mass, x, rho = physics.parameters_from_identified(a, b, psi)
         out = {
             "mass": mass,

@@ -123,6 +123,11 @@ def reference_posterior(
     *,
     gravity: float = GRAVITY,
     coupling: float = 0.0,
+    mass: Observation | None = None,
+    com_distance: Observation | None = None,
+    offset: float = 0.0,
+    offset_inertia: Observation | None = None,
+    offset_gravity_moment: Observation | None = None,
     n_identified: int = 120,
     n_mass: int = 400,
     tail: float = 1e-7,
@@ -141,6 +146,11 @@ def reference_posterior(
     coupling : float
         The condition's ``coupling`` (:class:`~inertiafit.inference.model.Condition`): the
         inertia evidence is evaluated at ``I + coupling * (M_g_obs - M_g)``.
+    mass, com_distance : Observation, optional
+        A weighed mass (kg) and a balance-point centre of mass (m).
+    offset, offset_inertia, offset_gravity_moment : float, Observation, Observation
+        A second mounting ``offset`` metres further out and its evidence on
+        ``I + 2 m x d + m d^2`` and ``m g (x + d)``.
     n_identified, n_mass : int
         Grid points along ``a`` and ``b`` each, and along ``m``.
     tail : float
@@ -160,6 +170,25 @@ def reference_posterior(
     # Masses the grid can reach: rho >= 0 gives m >= a^2 / b; x inside its bounds bounds m too.
     m_min = max(lo["mass"], a_edges[0] ** 2 / b_edges[-1], a_edges[0] / up["com_distance"])
     m_max = min(up["mass"], a_edges[-1] / lo["com_distance"])
+    # Masses the extra evidence allows, over the whole (a, b) grid.
+    a_lo, a_hi = a_edges[0], a_edges[-1]
+    if mass is not None:
+        h = mass.quantile_halfwidth(tail)
+        m_min, m_max = max(m_min, mass.center - h), min(m_max, mass.center + h)
+    if com_distance is not None:
+        h = com_distance.quantile_halfwidth(tail)
+        m_min = max(m_min, a_lo / (com_distance.center + h))
+        if com_distance.center > h:
+            m_max = min(m_max, a_hi / (com_distance.center - h))
+    if offset and offset_gravity_moment is not None:
+        h = offset_gravity_moment.quantile_halfwidth(tail) / gravity
+        ends = sorted(
+            (
+                (offset_gravity_moment.center / gravity - h - a_hi) / offset,
+                (offset_gravity_moment.center / gravity + h - a_lo) / offset,
+            )
+        )
+        m_min, m_max = max(m_min, ends[0]), min(m_max, ends[1])
     m_edges = np.linspace(m_min, m_max, n_mass + 1)
     m = 0.5 * (m_edges[1:] + m_edges[:-1])
 
@@ -182,6 +211,20 @@ def reference_posterior(
     if not prior.is_box:  # the prior density in (m, x, rho), relative to its peak
         log_p = np.where(inside, prior.log_density(M, x, rho, check_support=False), -np.inf)
         w = w * np.exp(log_p - log_p.max())
+    log_extra = np.zeros(M.shape)
+    if mass is not None:
+        log_extra = log_extra + mass.logpdf(M)
+    if com_distance is not None:
+        log_extra = log_extra + com_distance.logpdf(x)
+    if offset:
+        a_d, b_d = physics.moved_moments(A, B, M, offset)
+        if offset_gravity_moment is not None:
+            log_extra = log_extra + offset_gravity_moment.logpdf(gravity * a_d)
+        if offset_inertia is not None:
+            log_extra = log_extra + offset_inertia.logpdf(b_d)
+    if mass is not None or com_distance is not None or offset:
+        top = np.max(np.where(inside, log_extra, -np.inf))
+        w = w * np.exp(np.where(inside, log_extra - top, -np.inf))
     keep = w > 0
     weights = w[keep]
     weights = weights / weights.sum()
