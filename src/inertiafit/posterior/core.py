@@ -206,7 +206,9 @@ class Posterior:
                 prior = float(self.draws(body, p, "prior").std())
                 ratio = post / prior
                 verdict = identification_verdict(ratio)
-                counted = [s for s in sources if sens.get((s, p), 1.0) >= pins.PSENSE_THRESHOLD]
+                counted = pins.counted_sources(
+                    sources, p, {s: sens.get((s, p), 1.0) for s in sources}
+                )
                 rows.append(
                     {
                         "body": body,
@@ -219,9 +221,7 @@ class Posterior:
                         "calibration_share": gain[p],
                         "psense_prior": sens.get(("prior", p), np.nan),
                         "psense_likelihood": sens.get(("likelihood", p), np.nan),
-                        "pinned_by": pins.pinned_by(
-                            share[p], counted or sources, verdict, gain[p]
-                        ),
+                        "pinned_by": pins.pinned_by(share[p], counted, verdict, gain[p]),
                         "minimum_mass": (mg_med / g) ** 2 / i_med,
                     }
                 )

@@ -35,7 +35,9 @@ Sources
 ``com_distance`` (dim ``com_body``); ``second mounting`` where ``constant_data`` has a non-zero
 ``offset`` of a condition whose ``offset_body`` is the body. Which of several sources pins a
 parameter is read from ``psense`` of each source's log-likelihood terms (sensitivity >=
-:data:`PSENSE_THRESHOLD`); when none stands out all are named together.
+:data:`PSENSE_THRESHOLD`); ``data`` is always named except for the parameter an extra source
+measures directly (``m`` of a weighed mass, ``x`` of a balance point), since the others follow
+from ``m x`` and ``I`` as well. When none stands out all are named together.
 """
 
 from __future__ import annotations
@@ -56,8 +58,10 @@ __all__ = [
     "PRIOR_SCALE_STEP",
     "PSENSE_THRESHOLD",
     "SHORT",
+    "DIRECT",
     "body_sources",
     "correlation_table",
+    "counted_sources",
     "gain_scaling_log_weights",
     "pinned_by",
     "pins_line",
@@ -294,6 +298,28 @@ def source_terms(tree: xr.DataTree, body: str) -> dict[str, xr.DataArray]:
     if "second mounting" in sources:
         terms["second mounting"] = mounting
     return terms
+
+
+#: The parameter an extra source measures directly.
+DIRECT = {"weighed mass": "mass", "balance point": "com_distance"}
+
+
+def counted_sources(
+    sources: Sequence[str], parameter: str, sensitivities: Mapping[str, float]
+) -> list[str]:
+    """The sources to name for ``parameter``: those whose psense reaches the threshold.
+
+    ``data`` stays unless an extra source measures the parameter directly (a weighed mass
+    ``m``, a balance point ``x``): every other parameter follows from ``m x`` and ``I`` too.
+    A source without a sensitivity counts; when none counts, all are named.
+    """
+    direct = any(DIRECT.get(s) == parameter for s in sources)
+    counted = [
+        s
+        for s in sources
+        if sensitivities.get(s, 1.0) >= PSENSE_THRESHOLD or (s == "data" and not direct)
+    ]
+    return counted or list(sources)
 
 
 def pinned_by(
