@@ -9,6 +9,9 @@ Groups of the tree (ArviZ 1.x conventions, walkers as chains):
     ``lp``: log posterior density of the sampled coordinates (up to a constant).
 ``log_likelihood``
     ``inertia`` and ``gravity_moment``: one term per condition's evidence.
+``log_prior``
+    ``body_prior`` ``(chain, draw, body)``: the prior's log density of each draw's
+    ``(m, x, rho)``; ``torque_gain`` with a torque gain. What ``arviz_stats.psense`` scales.
 ``observed_data``
     The trial values (or the single summarised value) per condition.
 ``prior``

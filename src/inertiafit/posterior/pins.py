@@ -54,11 +54,11 @@ import xarray as xr
 from inertiafit.physics import PARAMETERS
 
 __all__ = [
+    "DIRECT",
     "PRIOR_DECIDES",
     "PRIOR_SCALE_STEP",
     "PSENSE_THRESHOLD",
     "SHORT",
-    "DIRECT",
     "body_sources",
     "correlation_table",
     "counted_sources",
