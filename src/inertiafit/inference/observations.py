@@ -16,6 +16,7 @@ Student-t convolved with it (:class:`inertiafit.stats.SmearedStudentT`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -28,6 +29,14 @@ from inertiafit.errors import InputError
 from inertiafit.stats import SmearedStudentT
 
 __all__ = ["Observation"]
+
+
+@functools.lru_cache(maxsize=256)
+def _isf(q: float, df: float) -> float:
+    """Upper ``q`` quantile of a Student-t with ``df`` degrees of freedom (``inf``: Gaussian)."""
+    from scipy import stats
+
+    return float(stats.norm.isf(q) if math.isinf(df) else stats.t.isf(q, df))
 
 
 @dataclass(frozen=True)
@@ -143,12 +152,9 @@ class Observation:
 
     def quantile_halfwidth(self, tail: float = 1e-4) -> float:
         """Half-width around ``center`` that holds all but ``tail`` of the likelihood's mass."""
-        from scipy import stats
-
-        shared = float(stats.norm.isf(tail / 2) * self.shared_sd)
-        if self.is_gaussian:
-            return float(stats.norm.isf(tail / 2) * self.scale) + shared
-        return float(stats.t.isf(tail / 2, self.df) * self.scale) + shared
+        normal = _isf(tail / 2, math.inf)
+        shared = normal * self.shared_sd
+        return _isf(tail / 2, self.df) * self.scale + shared
 
     def describe(self, unit: str = "") -> str:
         """Short text such as ``0.216 +- 0.0031 kg m^2 (Student-t, 30 trials)``."""
