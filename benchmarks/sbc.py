@@ -13,8 +13,13 @@ two-sided binomial p-value). A design passes when no p-value is below 0.001 / (n
 tests) (Bonferroni). Segment rows summarise all K segments: the smallest p-value and the
 range of coverages.
 
+Extra information (``inertiafit.inference.sbc.extra_design``): an attachment alone and with one
+segment (Gaussian evidence) with a second mounting, weighed masses, a balance point, a known
+added mass with a torque gain, and all of them at once; 100 studies each.
+
 Negative controls: the same studies fitted with every observation's scale multiplied by 0.5
-or 2 (the data were generated with the right one); they must fail the same test.
+or 2 (the data were generated with the right one), and the all-extra-information design with
+every scale (the measurements' too) times 0.3; they must fail the same test.
 For Student-t evidence the summary also says what the test gives without the exact
 truncation weights (``sbc`` module docstring).
 
@@ -31,13 +36,17 @@ from common import standalone, table
 
 from inertiafit.inference.sbc import (
     EVIDENCE,
+    EXTRA_KINDS,
     attachment_design,
     calibrated,
     calibration_table,
+    extra_design,
     run_sbc,
 )
 
 ALPHA = 0.001
+#: Studies per design with extra information (``sbc.extra_design``), full run.
+EXTRA_STUDIES = 100
 BINS = 10
 #: (segments, studies) of the full run.
 CALIBRATED = ((0, 400), (1, 300), (3, 200), (10, 100))
@@ -123,15 +132,19 @@ def _summary(result, rows, unweighted_rows) -> dict:
     return out
 
 
-def _one(k: int, evidence: str, scale: float, n: int, seed: int) -> dict:
-    design = attachment_design(k, evidence)
+def _one(k: int, evidence: str, scale: float, n: int, seed: int, extra: str | None = None) -> dict:
+    design = attachment_design(k, evidence) if extra is None else extra_design(extra)
     result = run_sbc(design, n, seed=seed, scale=scale)
     rows = calibration_table(result, bins=BINS)
     unweighted = (
-        calibration_table(result, bins=BINS, unweighted=True) if evidence != "mean_se" else None
+        calibration_table(result, bins=BINS, unweighted=True)
+        if design.evidence != "mean_se"
+        else None
     )
     summary = _summary(result, rows, unweighted)
-    label = f"K={k} {evidence}" + (f" scale x{scale:g}" if scale != 1 else "")
+    label = (f"K={k} {evidence}" if extra is None else f"K=1 mean_se, {extra}") + (
+        f" scale x{scale:g}" if scale != 1 else ""
+    )
     sys.stderr.write(
         f"sbc: {label}: {result.n_studies} studies, {result.seconds:.0f} s, "
         f"Bonferroni p {summary['bonferroni_p']:.3g}, failures {sum(result.failures.values())}, "
@@ -173,8 +186,14 @@ def run(*, quick: bool = False, seed: int = 1, fraction: float = 1.0) -> dict:
             continue
         for evidence in EVIDENCE:
             calibrated_runs.append(_one(k, evidence, 1.0, _count(n, quick, fraction), seed))
+    for kind in EXTRA_KINDS:
+        n = _count(EXTRA_STUDIES, quick, fraction)
+        calibrated_runs.append(_one(1, "mean_se", 1.0, n, seed, extra=kind))
     for k, evidence, scale, n in NEGATIVE:
         negative_runs.append(_one(k, evidence, scale, _count(n, quick, fraction), seed))
+    negative_runs.append(
+        _one(1, "mean_se", 0.3, _count(EXTRA_STUDIES // 2, quick, fraction), seed, extra="all")
+    )
     columns = [
         ("config", "config", ""),
         ("body", "body", ""),

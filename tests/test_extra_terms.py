@@ -16,13 +16,7 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import load_prior, parse_prior
 from inertiafit.inference.reference import reference_posterior
 from inertiafit.inference.sampler import SamplerSettings
-from inertiafit.inference.sbc import (
-    Mounting,
-    attachment_design,
-    calibrated,
-    calibration_table,
-    run_sbc,
-)
+from inertiafit.inference.sbc import calibrated, calibration_table, extra_design, run_sbc
 
 QUANTITIES = ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment")
 TRUE = (2.76, 0.236, 0.13)  # an elbow attachment: m, x, rho (its prior box is +-50 %)
@@ -257,30 +251,14 @@ def test_blocked_and_joint_samplers_agree_with_weighed_bodies_and_a_gain():
 # -- simulation-based calibration ------------------------------------------------------------
 
 
-def extra_design(**kwargs):
-    """Attachment + one segment: a second mounting of the attachment at 0.1 m, the segment
-    weighed, the attachment's balance point, a known added mass on the segment's condition."""
-    base = attachment_design(1, "mean_se", **kwargs)
-    a_add, b_add = (float(v) for v in physics.point_moments(0.5, 0.3, 0.02))
-    return dataclasses.replace(
-        base,
-        conditions=(
-            ("attachment",),
-            Mounting(("attachment", "seg01"), added_first_moment=a_add, added_inertia=b_add),
-            Mounting(("attachment",), "attachment", 0.1),
-        ),
-        measured={"seg01": {"mass": 0.03}, "attachment": {"com_distance": 0.004}},
-    )
-
-
 @pytest.mark.slow
 def test_sbc_with_every_extra_term_is_calibrated():
-    result = run_sbc(extra_design(), 40, seed=13)
+    result = run_sbc(extra_design("all"), 40, seed=13)
     assert not result.failures
     assert calibrated(calibration_table(result))
 
 
 @pytest.mark.slow
 def test_sbc_negative_control_overconfident_extra_terms_fail():
-    result = run_sbc(extra_design(), 25, seed=13, scale=0.3)
+    result = run_sbc(extra_design("all"), 25, seed=13, scale=0.3)
     assert not calibrated(calibration_table(result))

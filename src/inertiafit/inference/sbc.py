@@ -55,6 +55,7 @@ A set of quantities passes when no p-value is below ``alpha`` divided by the num
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from collections import Counter
@@ -76,6 +77,7 @@ from inertiafit.physics import GRAVITY, REPORTED
 
 __all__ = [
     "EVIDENCE",
+    "EXTRA_KINDS",
     "SBC_SETTINGS",
     "Design",
     "Mounting",
@@ -86,6 +88,7 @@ __all__ = [
     "calibration_table",
     "condition_totals",
     "draw_truth_and_data",
+    "extra_design",
     "hdi_contains",
     "run_sbc",
     "sbc_ranks",
@@ -288,6 +291,50 @@ def attachment_design(k: int, evidence: str, *, seed: int = 0, **kwargs) -> Desi
         )
     conditions = (("attachment",), *(("attachment", b) for b in list(priors)[1:]))
     return Design(priors, conditions, evidence, **kwargs)
+
+
+#: Kinds of extra information :func:`extra_design` simulates.
+EXTRA_KINDS = ("second mounting", "weighed mass", "balance point", "added mass", "all")
+
+
+def extra_design(kind: str, *, seed: int = 0, **kwargs) -> Design:
+    """An attachment alone and with one segment, with one kind of extra information.
+
+    ``"second mounting"``: the attachment measured again 0.1 m further out; ``"weighed
+    mass"``: both bodies weighed (SD 0.05 kg and 0.03 kg); ``"balance point"``: the
+    attachment's centre of mass to 4 mm; ``"added mass"``: a known 0.5 kg point 0.3 m out
+    mounted with the segment (with a 2 % torque gain, which a known mass can calibrate);
+    ``"all"``: the second mounting, the segment weighed, the attachment's balance point and
+    the added mass. ``kwargs`` go to :class:`Design` (default evidence ``mean_se``).
+    """
+    if kind not in EXTRA_KINDS:
+        raise InputError(f"kind: expected one of {', '.join(EXTRA_KINDS)}, got {kind!r}")
+    kwargs.setdefault("evidence", "mean_se")
+    evidence = kwargs.pop("evidence")
+    base = attachment_design(1, evidence, seed=seed, **kwargs)
+    a_add, b_add = (float(v) for v in physics.point_moments(0.5, 0.3, 0.0))
+    plain: tuple[tuple[str, ...] | Mounting, ...] = (("attachment",), ("attachment", "seg01"))
+    moved = Mounting(("attachment",), "attachment", 0.1)
+    added = Mounting(("attachment", "seg01"), added_first_moment=a_add, added_inertia=b_add)
+    if kind == "second mounting":
+        return dataclasses.replace(base, conditions=(*plain, moved))
+    if kind == "weighed mass":
+        return dataclasses.replace(
+            base, measured={"attachment": {"mass": 0.05}, "seg01": {"mass": 0.03}}
+        )
+    if kind == "balance point":
+        return dataclasses.replace(base, measured={"attachment": {"com_distance": 0.004}})
+    if kind == "added mass":
+        return dataclasses.replace(
+            base,
+            conditions=(("attachment",), added),
+            torque_gain_sd=kwargs.get("torque_gain_sd", 0.02),
+        )
+    return dataclasses.replace(
+        base,
+        conditions=(("attachment",), added, moved),
+        measured={"seg01": {"mass": 0.03}, "attachment": {"com_distance": 0.004}},
+    )
 
 
 @dataclass(frozen=True)
