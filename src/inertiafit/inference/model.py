@@ -103,6 +103,9 @@ MEASURED = ("mass", "com_distance")
 #: the evidence allows the body, and as many again over the narrowest term's core.
 N_EXTRA_CELLS = 96
 
+#: Edges of :data:`N_EXTRA_CELLS` equal cells of ``[0, 1]``.
+_UNIT_EDGES = np.linspace(0.0, 1.0, N_EXTRA_CELLS + 1)
+
 #: Tail of each term's likelihood left outside that window, and the core's half-width in SDs.
 _WINDOW_TAIL = 1e-8
 _CORE_SDS = 8.0
@@ -708,12 +711,12 @@ class Model:
                 core = (clo, chi)
         assert core is not None
 
-        def angle(m):  # psi of the mass m on the curve through (a, b): sin^2 psi = a^2/(b m)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                return np.arcsin(np.sqrt(np.clip(a * a / (b * np.maximum(m, 0.0)), 0.0, 1.0)))
-
-        w_lo, w_hi = angle(m_hi), angle(m_lo)  # psi falls as m grows
-        c_lo, c_hi = angle(core[1]), angle(core[0])
+        # psi of the mass m on the curve through (a, b): sin^2 psi = a^2 / (b m); psi falls as
+        # m grows. Rows: window high, window low, core high, core low.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ends = np.stack([m_hi, m_lo, core[1], core[0]])
+            ends = np.arcsin(np.sqrt(np.clip((a * a / b) / np.maximum(ends, 0.0), 0.0, 1.0)))
+        w_lo, w_hi, c_lo, c_hi = ends
         lo1, hi1, lo2, hi2 = feasible_angles(a, b, prior)
         lo1, hi1 = np.maximum(lo1, w_lo), np.minimum(hi1, w_hi)
         lo2, hi2 = np.maximum(lo2, w_lo), np.minimum(hi2, w_hi)
@@ -725,17 +728,19 @@ class Model:
         def fraction(psi):
             return (np.clip(psi - lo1, 0.0, len1) + np.clip(psi - lo2, 0.0, len2)) / safe
 
-        n = N_EXTRA_CELLS
-        base = np.linspace(0.0, 1.0, n + 1)
+        base = _UNIT_EDGES
         f_lo, f_hi = fraction(c_lo), fraction(c_hi)
-        edges = np.concatenate(
-            [
-                np.broadcast_to(base, (len(a), n + 1)),
-                f_lo[:, None] + (f_hi - f_lo)[:, None] * base[None, :],
-            ],
-            axis=1,
-        )
-        edges.sort(axis=1)
+        if np.all(f_hi - f_lo > 0.5):  # the core is most of the window: one grid will do
+            edges = np.broadcast_to(base, (len(a), len(base)))
+        else:
+            edges = np.concatenate(
+                [
+                    np.broadcast_to(base, (len(a), len(base))),
+                    f_lo[:, None] + (f_hi - f_lo)[:, None] * base[None, :],
+                ],
+                axis=1,
+            )
+            edges.sort(axis=1)
         u = 0.5 * (edges[:, 1:] + edges[:, :-1]) * safe[:, None]
         width = np.diff(edges, axis=1) * safe[:, None]
         psi = self._angle_at(u, lo1, len1, lo2)
