@@ -34,6 +34,7 @@ __all__ = [
     "condition_evidence",
     "evidence_from_numbers",
     "measured_evidence",
+    "measured_from_numbers",
     "shared_gravity_error",
     "study_model",
     "study_priors",
@@ -201,3 +202,24 @@ def evidence_from_numbers(
             raise InputError(f"{name}_sd/{name}_n describe one mean; give one {name} value")
         return Observation.from_mean_sd(vals[0], sd, n, where=name)
     return Observation.from_values(vals, se=se, where=name)
+
+
+def measured_from_numbers(
+    **given: tuple[float | None, float | None],
+) -> dict[str, Observation]:
+    """Direct measurements given as numbers, ``name=(value, sd)``, as Gaussians by name.
+
+    A pair of ``None`` is left out; a value without its SD (or an SD without its value) is an
+    error naming ``name`` and ``name_sd`` (the arguments of
+    :func:`~inertiafit.inference.fit.fit_body`).
+    """
+    out = {}
+    for name, (value, sd) in given.items():
+        if value is None and sd is None:
+            continue
+        if sd is None:
+            raise InputError(f"{name}: needs its SD {name}_sd too")
+        if value is None:
+            raise InputError(f"{name}_sd: needs the value {name} too")
+        out[name] = Observation.from_mean_se(value, check_positive(sd, f"{name}_sd"), where=name)
+    return out
