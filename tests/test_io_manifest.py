@@ -232,8 +232,8 @@ def test_unknown_keys(study_dir):
     )
     expect(
         study_dir,
-        BODIES.replace("ideal = {", "mass = 3\nideal = {") + TRIALS,
-        r"bodies\.weight\.mass: unknown key \(allowed: prior, ideal\)",
+        BODIES.replace("ideal = {", "weight = 3\nideal = {") + TRIALS,
+        r"bodies\.weight\.weight: unknown key \(allowed: prior, ideal, mass, com_distance\)",
     )
 
 

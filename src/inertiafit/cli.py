@@ -148,6 +148,31 @@ def build_parser() -> argparse.ArgumentParser:
         help="relative SD of the torque channel's gain (0.01 = 1 %%), carried in the posterior "
         "(default 0: calibration uncertainty not included)",
     )
+    fit.add_argument(
+        "--mass",
+        type=_number,
+        metavar="KG",
+        help="the body weighed on a scale, kg (with --mass-sd): extra evidence on m",
+    )
+    fit.add_argument(
+        "--mass-sd",
+        type=_number,
+        metavar="KG",
+        help="SD of that weighing, kg (a reading rounded to a step q: at least q/sqrt(12))",
+    )
+    fit.add_argument(
+        "--com-distance",
+        type=_number,
+        metavar="M",
+        help="a balance point: distance of the centre of mass from the joint axis, m "
+        "(with --com-distance-sd)",
+    )
+    fit.add_argument(
+        "--com-distance-sd",
+        type=_number,
+        metavar="M",
+        help="SD of that balance point, m",
+    )
     _add_common(fit, "inertiafit-output")
 
     run = sub.add_parser(
@@ -272,6 +297,10 @@ def _fit(args) -> int:
         gravity_moment_n=args.gravity_moment_n,
         gravity=args.gravity,
         torque_gain_sd=args.torque_gain_sd,
+        mass=args.mass,
+        mass_sd=args.mass_sd,
+        com_distance=args.com_distance,
+        com_distance_sd=args.com_distance_sd,
         out=args.out,
         seed=args.seed,
         hdi_prob=args.hdi_prob,

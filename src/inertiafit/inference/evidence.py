@@ -6,6 +6,10 @@ of its fast trials' inertia, a Gaussian on its quasi-static gravity moment, and 
 condition's gravity model, shared by all its fast trials (:func:`shared_gravity_error`).
 :func:`evidence_from_numbers` does the same for numbers quoted in a paper (values, mean ± SE,
 or mean with SD and ``n``).
+
+Extra information from the manifest enters the same way: a condition's second mounting
+(``offset``) and known added masses become fields of its :class:`Condition`, and a body's
+weighed mass and balance point become Gaussians in :func:`study_model` (:func:`measured_evidence`).
 """
 
 from __future__ import annotations
@@ -29,6 +33,8 @@ if TYPE_CHECKING:  # evidence reads these; importing them would load the process
 __all__ = [
     "condition_evidence",
     "evidence_from_numbers",
+    "measured_evidence",
+    "measured_from_numbers",
     "shared_gravity_error",
     "study_model",
     "study_priors",
@@ -83,9 +89,11 @@ def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
 
     The inertia's evidence carries the error of the condition's gravity model
     (:func:`shared_gravity_error`): a ``coupling`` to the gravity moment and a Gaussian
-    ``shared_sd``.
+    ``shared_sd``. A condition whose trials move a body along the lever (``offset``) or add
+    known masses (``added_mass``) carries them (:attr:`inertiafit.io.Study.condition_specs`).
     """
     study = processed.study
+    specs = study.condition_specs
     out = []
     for label, bodies in study.conditions.items():
         sub = processed.trials[processed.trials["condition"] == label]
@@ -110,17 +118,54 @@ def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
                 sens = processed.sensitivity.loc[fast["file"], ["sin", "cos", "offset"]]
                 coupling, shared = shared_gravity_error(g.coefficients, g.covariance, sens)
                 obs_i = obs_i.with_shared_error(shared)
-        out.append(Condition(tuple(bodies), obs_i, obs_g, label=label, coupling=coupling))
+        spec = specs[label]
+        added_a, added_i = spec.added_moments
+        out.append(
+            Condition(
+                tuple(bodies),
+                obs_i,
+                obs_g,
+                label=label,
+                coupling=coupling,
+                offset_body=spec.offset_body,
+                offset=spec.offset,
+                added_first_moment=added_a,
+                added_inertia=added_i,
+            )
+        )
     return out
 
 
+def measured_evidence(
+    measured: dict[str, dict[str, tuple[float, float]]], *, where: str = "measured"
+) -> dict[str, dict[str, Observation]]:
+    """Direct measurements ``{body: {"mass" | "com_distance": (value, sd)}}`` as Gaussians.
+
+    The ``measured`` argument of :class:`~inertiafit.inference.model.Model`; values and SDs
+    in kg and m (:attr:`inertiafit.io.BodySpec.measured`).
+    """
+    return {
+        body: {
+            key: Observation.from_mean_se(value, sd, where=f"{where}: bodies.{body}.{key}")
+            for key, (value, sd) in table.items()
+        }
+        for body, table in measured.items()
+    }
+
+
 def study_model(processed: ProcessedStudy, priors: dict[str, Prior] | None = None) -> Model:
-    """The joint model over every body of the study (priors resolved when not given)."""
+    """The joint model over every body of the study (priors resolved when not given).
+
+    Bodies weighed or balanced in the manifest (``[bodies.<name>] mass``, ``com_distance``)
+    carry that evidence (:func:`measured_evidence`).
+    """
+    study = processed.study
     return Model(
-        priors if priors is not None else study_priors(processed.study),
+        priors if priors is not None else study_priors(study),
         condition_evidence(processed),
-        gravity=processed.study.gravity,
-        torque_gain_sd=processed.study.calibration.torque_gain_sd,
+        gravity=study.gravity,
+        torque_gain_sd=study.calibration.torque_gain_sd,
+        measured=measured_evidence(study.measured, where=str(study.path)) or None,
     )
 
 
@@ -157,3 +202,24 @@ def evidence_from_numbers(
             raise InputError(f"{name}_sd/{name}_n describe one mean; give one {name} value")
         return Observation.from_mean_sd(vals[0], sd, n, where=name)
     return Observation.from_values(vals, se=se, where=name)
+
+
+def measured_from_numbers(
+    **given: tuple[float | None, float | None],
+) -> dict[str, Observation]:
+    """Direct measurements given as numbers, ``name=(value, sd)``, as Gaussians by name.
+
+    A pair of ``None`` is left out; a value without its SD (or an SD without its value) is an
+    error naming ``name`` and ``name_sd`` (the arguments of
+    :func:`~inertiafit.inference.fit.fit_body`).
+    """
+    out = {}
+    for name, (value, sd) in given.items():
+        if value is None and sd is None:
+            continue
+        if sd is None:
+            raise InputError(f"{name}: needs its SD {name}_sd too")
+        if value is None:
+            raise InputError(f"{name}_sd: needs the value {name} too")
+        out[name] = Observation.from_mean_se(value, check_positive(sd, f"{name}_sd"), where=name)
+    return out

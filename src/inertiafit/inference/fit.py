@@ -14,7 +14,7 @@ from importlib.metadata import version
 import numpy as np
 import xarray as xr
 
-from inertiafit.inference.evidence import evidence_from_numbers
+from inertiafit.inference.evidence import evidence_from_numbers, measured_from_numbers
 from inertiafit.inference.model import MEASURED, Condition, Model
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.sampler import SamplerSettings, sample
@@ -317,6 +317,10 @@ def fit_body(
     torque_gain_sd: float = 0.0,
     seed: int = 0,
     settings: SamplerSettings | None = None,
+    mass: float | None = None,
+    mass_sd: float | None = None,
+    com_distance: float | None = None,
+    com_distance_sd: float | None = None,
 ) -> Posterior:
     """Posterior of one body from reported numbers.
 
@@ -337,6 +341,11 @@ def fit_body(
         parameter; 0 leaves it out (the result says so).
     seed : int
         Seed of every random draw.
+    mass, mass_sd : float, optional
+        The body weighed on a scale (kg) and that reading's SD (kg; a reading rounded to a
+        step ``q`` alone has the SD ``q / sqrt(12)``): a Gaussian term of the posterior.
+    com_distance, com_distance_sd : float, optional
+        A balance point: the centre of mass's distance from the joint axis (m) and its SD (m).
 
     Returns
     -------
@@ -344,6 +353,9 @@ def fit_body(
         The body is named after the prior.
     """
     prior = load_prior(prior)
+    measured = measured_from_numbers(
+        mass=(mass, mass_sd), com_distance=(com_distance, com_distance_sd)
+    )
     obs_i = evidence_from_numbers("inertia", inertia, inertia_se, inertia_sd, inertia_n)
     obs_g = evidence_from_numbers(
         "gravity_moment", gravity_moment, gravity_moment_se, gravity_moment_sd, gravity_moment_n
@@ -353,6 +365,7 @@ def fit_body(
         [Condition((prior.name,), obs_i, obs_g)],
         gravity=gravity,
         torque_gain_sd=torque_gain_sd,
+        measured={prior.name: measured} if measured else None,
     )
     inputs = {
         "prior": prior.name,
@@ -371,4 +384,6 @@ def fit_body(
         "gravity": gravity,
         "torque_gain_sd": torque_gain_sd,
     }
+    if measured:
+        inputs["measured"] = {k: [obs.center, obs.scale] for k, obs in measured.items()}
     return fit(model, seed=seed, settings=settings, inputs=inputs)

@@ -6,7 +6,7 @@
   ``angle`` rad, ``velocity`` rad/s, ``torque`` N m; attrs ``source``, ``sampling_rate``,
   ``format``).
 - :func:`load_study` parses a study manifest into a :class:`Study` of :class:`BodySpec` and
-  :class:`TrialSpec`, with its :class:`Calibration`; :meth:`Study.read` reads one of its
+  :class:`TrialSpec`, with its :class:`Calibration` and a :class:`ConditionSpec` per condition; :meth:`Study.read` reads one of its
   trials.
 
 Units are converted to SI once, here (:mod:`inertiafit.io.units`). The formats are described
@@ -18,6 +18,7 @@ from __future__ import annotations
 from inertiafit.io.manifest import (
     BodySpec,
     Calibration,
+    ConditionSpec,
     Study,
     TrialSpec,
     load_study,
@@ -33,6 +34,7 @@ __all__ = [
     "SI_UNITS",
     "BodySpec",
     "Calibration",
+    "ConditionSpec",
     "Study",
     "TrialSpec",
     "available_formats",

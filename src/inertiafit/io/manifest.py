@@ -9,6 +9,8 @@
     prior = "biodex-elbow-attachment"   # a prior name, a path, or an inline table
     [bodies.weight]
     prior = { mass = 2.92, radius_of_gyration = 0.035, com_distance = 0.45, spread = 0.5 }
+    mass = { value = 2.93, resolution = 0.01 }          # optional: weighed (kg; or sd = ...)
+    com_distance = { value = 45.5, sd = 0.2, unit = "cm" }  # optional: a balance point
     [defaults]                          # optional; each [[trials]] entry may override
     format = "csv"
     columns = { time = "t", torque = "moment" }
@@ -25,6 +27,12 @@
     window = [0.10, 0.22]               # optional manual acceleration window (s)
     torque_sign = -1                    # optional, +1 or -1 ("motion": see apply_torque_sign)
     lag = 0.003                         # optional (also in [defaults]): fixed torque lag (s)
+    [[trials]]                          # a second mounting: its own condition
+    file = "data/C_quasistatic.csv"
+    bodies = ["attachment", "weight"]
+    kind = "quasi-static"
+    offset = { weight = 0.05 }          # per trial only: this body sits 5 cm further out (m)
+    added_mass = { mass = 0.5, com_distance = 0.30 }  # per trial only: a known mass (SI)
     [calibration]                       # optional; systematic errors of the instrument
     torque_gain_sd = 0.01               # relative SD of the torque gain (default 0)
     angle_offset_sd = 0.5               # deg (default 0; absorbed by the gravity phase)
@@ -35,6 +43,18 @@
 :func:`load_study` checks all of it and returns a :class:`Study`; every problem is one
 :class:`~inertiafit.errors.InputError` line naming the manifest and the key path, such as
 ``trials[3].bodies`` (``trials[0]`` is the first ``[[trials]]`` entry).
+
+Extra information
+-----------------
+A body's ``mass`` (a scale) and ``com_distance`` (a balance point: the centre of mass's
+distance from the joint axis in the body's own mounting) are tables ``{ value, sd | resolution,
+unit }``; ``resolution`` is a reading rounded to that step, whose rounding error alone has the
+SD ``resolution / sqrt(12)`` (a scale's stated accuracy, given as ``sd``, is usually larger).
+They become :attr:`BodySpec.measured` (value, SD in kg and m). A trial's ``offset`` (one mounted
+body moved that far along the lever, m or ``{ value, unit }``) and ``added_mass`` (known masses:
+``mass`` kg, ``com_distance`` m, optional ``radius_of_gyration`` m about their own centre of
+mass) are part of its condition: trials that differ in them are different conditions
+(:class:`ConditionSpec`, :attr:`Study.condition_specs`), labelled by :func:`condition_label`.
 """
 
 from __future__ import annotations
@@ -43,12 +63,13 @@ import hashlib
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import xarray as xr
 
+from inertiafit import physics
 from inertiafit.errors import InputError
 from inertiafit.io.readers import (
     available_formats,
@@ -59,21 +80,26 @@ from inertiafit.io.readers import (
     reader_options,
 )
 from inertiafit.io.trial import apply_torque_sign
+from inertiafit.io.units import unit_factor
 from inertiafit.physics import GRAVITY
 
 __all__ = [
+    "ADDED_MASS_KEYS",
     "BODY_KEYS",
     "CALIBRATION_KEYS",
     "DEFAULT_KEYS",
     "KINDS",
     "MAX_TORQUE_GAIN_SD",
+    "MEASURED_KEYS",
     "ON_TRIAL_ERROR",
     "TOP_KEYS",
     "TRIAL_KEYS",
     "BodySpec",
     "Calibration",
+    "ConditionSpec",
     "Study",
     "TrialSpec",
+    "condition_label",
     "file_sha256",
     "load_study",
     "read_trial_spec",
@@ -93,7 +119,15 @@ TOP_KEYS = (
     "on_trial_error",
     "calibration",
 )
-BODY_KEYS = ("prior", "ideal")
+BODY_KEYS = ("prior", "ideal", "mass", "com_distance")
+#: Keys of a measured quantity's table (``[bodies.<name>] mass`` or ``com_distance``).
+MEASURED_KEYS = ("value", "sd", "resolution", "unit")
+#: Measured quantity -> (quantity of :mod:`inertiafit.io.units`, SI unit).
+_MEASURED_UNITS = {"mass": ("mass", "kg"), "com_distance": ("length", "m")}
+#: Keys of one ``added_mass`` table of a trial (SI: kg, m, m).
+ADDED_MASS_KEYS = ("mass", "com_distance", "radius_of_gyration")
+#: Keys of a trial that describe its mounting; never in ``[defaults]``.
+_MOUNTING_KEYS = ("offset", "added_mass")
 DEFAULT_KEYS = ("format", "columns", "units", "calibration", "torque_sign", "options", "lag")
 #: Keys of the top-level ``[calibration]`` table (:class:`Calibration`).
 CALIBRATION_KEYS = ("torque_gain_sd", "angle_offset_sd", "lag", "lag_bounds", "max_lag_spread")
@@ -102,7 +136,7 @@ _MAX_LAG = 1.0
 #: Largest relative SD of the torque gain (``[calibration] torque_gain_sd``) the model takes:
 #: beyond 50 % a "calibration" is no calibration.
 MAX_TORQUE_GAIN_SD = 0.5
-TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *DEFAULT_KEYS)
+TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *_MOUNTING_KEYS, *DEFAULT_KEYS)
 
 
 @dataclass(frozen=True)
@@ -118,11 +152,17 @@ class BodySpec:
         (:func:`inertiafit.inference.priors.load_prior`).
     ideal : dict or None
         Optional raw table of ideal-shape values to compare against.
+    measured : dict of str to (float, float)
+        Direct measurements of the body, ``"mass"`` (kg, a scale) and ``"com_distance"`` (m,
+        a balance point, from the joint axis in the body's own mounting): ``(value, sd)`` in
+        SI units; ``sd`` is ``resolution / sqrt(12)`` for a reading given with its
+        resolution. Empty when none.
     """
 
     name: str
     prior: str | dict[str, Any]
     ideal: dict[str, Any] | None = None
+    measured: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -188,7 +228,9 @@ class TrialSpec:
         sign); ``"motion"`` signs a torque written as a magnitude by the direction of motion
         (fast trials; :func:`inertiafit.io.trial.apply_torque_sign`).
     condition : str
-        The mounted body names joined by ``"+"``, in ``[bodies]`` order.
+        The condition's label: the mounted body names joined by ``"+"``, in ``[bodies]``
+        order, followed by the offset and the added masses when the trial has them
+        (:func:`condition_label`).
     options : dict
         Keyword options passed to the reader.
     index : int
@@ -197,6 +239,12 @@ class TrialSpec:
         The torque channel's lag (s) the manifest fixes for this trial: its own ``lag``, else
         ``[defaults] lag``, else a number in ``[calibration] lag``; ``None`` when the lag is
         to be estimated (fast trials).
+    offset_body, offset : str, float
+        A second mounting: body ``offset_body`` sits ``offset`` metres further out along the
+        lever than in its own mounting (``""`` and ``0.0`` for none).
+    added : tuple of (float, float, float)
+        Known masses mounted with the bodies: ``(mass, com_distance, radius_of_gyration)``
+        each, in kg, m, m, sorted.
     """
 
     file: Path
@@ -213,6 +261,9 @@ class TrialSpec:
     options: dict[str, Any] = field(default_factory=dict)
     index: int = 0
     lag: float | None = None
+    offset_body: str = ""
+    offset: float = 0.0
+    added: tuple[tuple[float, float, float], ...] = ()
 
     def read(self) -> xr.Dataset:
         """Read this trial; see :func:`read_trial_spec`."""
@@ -233,6 +284,80 @@ class TrialSpec:
             "torque_sign": self.torque_sign,
             "window": list(self.window) if self.window is not None else None,
         }
+
+
+@dataclass(frozen=True)
+class ConditionSpec:
+    """What is mounted in one condition: bodies, a body moved along the lever, known masses.
+
+    Attributes
+    ----------
+    label : str
+        The condition's label (:func:`condition_label`), as in ``trials.csv``.
+    bodies : tuple of str
+        The mounted bodies, in ``[bodies]`` order.
+    offset_body, offset : str, float
+        Body moved ``offset`` metres further out along the lever (``""``, ``0.0``: none).
+    added : tuple of (float, float, float)
+        Known added masses ``(mass, com_distance, radius_of_gyration)`` in kg, m, m.
+    """
+
+    label: str
+    bodies: tuple[str, ...]
+    offset_body: str = ""
+    offset: float = 0.0
+    added: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def added_moments(self) -> tuple[float, float]:
+        """``(m x, I)`` of the added masses together, kg m and kg m^2 (0 without any).
+
+        Each is a body of known mass, centre-of-mass distance and radius of gyration about its
+        own centre of mass (:func:`inertiafit.physics.point_moments`).
+        """
+        a = i = 0.0
+        for mass, distance, radius in self.added:
+            da, di = physics.point_moments(mass, distance, radius)
+            a, i = a + float(da), i + float(di)
+        return a, i
+
+    @property
+    def plain(self) -> bool:
+        """Whether the bodies are mounted as they are (no offset, no added mass)."""
+        return not self.offset_body and not self.added
+
+
+def _length_label(metres: float) -> str:
+    """A distance for a label: whole centimetres as ``5cm``, else millimetres (``12.5mm``)."""
+    cm = metres * 100.0
+    if abs(cm - round(cm)) < 1e-9:
+        return f"{round(cm)}cm"
+    return f"{metres * 1000.0:.6g}mm"
+
+
+def condition_label(
+    bodies: tuple[str, ...],
+    offset_body: str = "",
+    offset: float = 0.0,
+    added: tuple[tuple[float, float, float], ...] = (),
+) -> str:
+    """The readable label of a condition, safe in a file name.
+
+    The mounted bodies joined by ``+`` (``attachment+disk``, the label of every condition
+    without offset or added mass); a body moved along the lever appends ``@<body>+<d>``
+    (``attachment+disk@disk+5cm``; ``-`` for a negative offset); each added mass appends
+    ``+added<mass>kg@<distance>`` (``attachment+added0.5kg@30cm``). Distances are whole
+    centimetres or millimetres. :func:`load_study` makes labels unique (``_2``, ``_3``, ...
+    after a label already taken by another condition, e.g. masses that differ only in their
+    radius of gyration).
+    """
+    label = "+".join(bodies)
+    if offset_body:
+        sign = "-" if offset < 0 else "+"
+        label += f"@{offset_body}{sign}{_length_label(abs(offset))}"
+    for mass, distance, _radius in added:
+        label += f"+added{mass:.6g}kg@{'-' if distance < 0 else ''}{_length_label(abs(distance))}"
+    return label
 
 
 @dataclass(frozen=True)
@@ -279,6 +404,22 @@ class Study:
         for trial in self.trials:
             out.setdefault(trial.condition, trial.bodies)
         return out
+
+    @property
+    def condition_specs(self) -> dict[str, ConditionSpec]:
+        """Condition label -> what is mounted (bodies, offset, added masses), as ``conditions``."""
+        out: dict[str, ConditionSpec] = {}
+        for t in self.trials:
+            if t.condition not in out:
+                out[t.condition] = ConditionSpec(
+                    t.condition, t.bodies, t.offset_body, t.offset, t.added
+                )
+        return out
+
+    @property
+    def measured(self) -> dict[str, dict[str, tuple[float, float]]]:
+        """Body -> its direct measurements (``BodySpec.measured``), bodies with any only."""
+        return {name: dict(b.measured) for name, b in self.bodies.items() if b.measured}
 
     def read(self, trial: TrialSpec | int) -> xr.Dataset:
         """Read one trial (a TrialSpec or its index) into a Trial dataset.
@@ -520,8 +661,11 @@ def load_study(path: str | Path) -> Study:
         an unknown key, a missing trial file, an unknown body, a body without prior, a bad
         ``kind``, ``speed``, ``window``, ``torque_sign``, ``lag`` or ``on_trial_error``, an
         unknown format, unit or option, a bad ``[calibration]`` value (unknown key, wrong
-        type, not finite, a negative SD, ``lag_bounds`` not increasing), no trials, or a
-        condition with fast trials but no quasi-static one.
+        type, not finite, a negative SD, ``lag_bounds`` not increasing), a bad measured
+        ``mass`` or ``com_distance`` (no value, a value or SD not positive, both ``sd`` and
+        ``resolution`` or neither, an unknown unit), a bad ``offset`` (not exactly one
+        mounted body, zero or not finite) or ``added_mass``, either of those in
+        ``[defaults]``, no trials, or a condition with fast trials but no quasi-static one.
     """
     path = Path(path).expanduser().resolve()
     where = str(path)
@@ -559,6 +703,12 @@ def load_study(path: str | Path) -> Study:
         doc.get("defaults", {}), where=f"{where}: defaults", what="reader settings"
     )
     for key in raw_defaults:
+        if key in _MOUNTING_KEYS:
+            raise _fail(
+                f"{where}: defaults.{key}",
+                "per trial only: a mounting belongs to the trials recorded with it; put it in "
+                "each [[trials]] entry of that mounting",
+            )
         if key not in DEFAULT_KEYS:
             raise _fail(
                 f"{where}: defaults.{key}", f"unknown key (allowed: {', '.join(DEFAULT_KEYS)})"
@@ -588,6 +738,7 @@ def load_study(path: str | Path) -> Study:
                 f"{trial.file} is already trials[{seen[trial.file]}]; each recording counts once",
             )
         seen[trial.file] = trial.index
+    trials = _label_conditions(trials)
     for condition in dict.fromkeys(t.condition for t in trials):
         members = [t for t in trials if t.condition == condition]
         fast = [t.index for t in members if t.kind == "fast"]
@@ -639,8 +790,147 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
         ideal = entry.get("ideal")
         if ideal is not None:
             ideal = _table(ideal, where=f"{here}.ideal", what="ideal-shape values")
-        bodies[name] = BodySpec(name=name, prior=prior, ideal=ideal)
+        measured = {
+            key: _measured(entry[key], key, where=f"{here}.{key}")
+            for key in _MEASURED_UNITS
+            if key in entry
+        }
+        bodies[name] = BodySpec(name=name, prior=prior, ideal=ideal, measured=measured)
     return bodies
+
+
+def _measured(value: object, key: str, *, where: str) -> tuple[float, float]:
+    """A measured ``mass`` or ``com_distance``: ``(value, sd)`` in kg or m."""
+    quantity, si = _MEASURED_UNITS[key]
+    table = _table(
+        value, where=where, what=f"{{ value = ..., sd = ... or resolution = ..., unit = {si!r} }}"
+    )
+    for k in table:
+        if k not in MEASURED_KEYS:
+            raise _fail(f"{where}.{k}", f"unknown key (allowed: {', '.join(MEASURED_KEYS)})")
+    unit = table.get("unit", si)
+    factor = unit_factor(quantity, unit, where=f"{where}.unit")
+    if "value" not in table:
+        raise _fail(f"{where}.value", f"missing; the measured {key} ({unit})")
+    center = _positive(table["value"], where=f"{where}.value", unit=str(unit))
+    if "sd" in table and "resolution" in table:
+        raise _fail(
+            where,
+            "give sd (the measurement's SD) or resolution (the reading's step), not both",
+        )
+    if "sd" in table:
+        sd = _positive(table["sd"], where=f"{where}.sd", unit=str(unit))
+    elif "resolution" in table:
+        # A reading rounded to a step q is off by a uniform error on (-q/2, q/2): SD q/sqrt(12).
+        sd = _positive(table["resolution"], where=f"{where}.resolution", unit=str(unit))
+        sd /= math.sqrt(12.0)
+    else:
+        raise _fail(
+            f"{where}.sd",
+            f"missing; give the measurement's sd or the reading's resolution ({unit})",
+        )
+    return center * factor, sd * factor
+
+
+def _offset(value: object, *, where: str, bodies: tuple[str, ...]) -> tuple[str, float]:
+    """A trial's ``offset = { <body> = d }``: the one body moved and ``d`` in metres."""
+    table = _table(value, where=where, what="{ <body> = distance in m }")
+    if len(table) != 1:
+        raise _fail(
+            where,
+            f"expected exactly one body moved along the lever ({{ <body> = distance in m }}), "
+            f"got {value!r}",
+        )
+    ((body, raw),) = table.items()
+    if body not in bodies:
+        raise _fail(
+            f"{where}.{body}",
+            f"body {body!r} is not mounted in this trial (bodies: {', '.join(bodies)})",
+        )
+    here = f"{where}.{body}"
+    factor, unit = 1.0, "m"
+    if isinstance(raw, dict):
+        for k in raw:
+            if k not in ("value", "unit"):
+                raise _fail(f"{here}.{k}", "unknown key (allowed: value, unit)")
+        if "value" not in raw:
+            raise _fail(f"{here}.value", "missing; the distance the body is moved")
+        unit = raw.get("unit", "m")
+        factor = unit_factor("length", unit, where=f"{here}.unit")
+        raw = raw["value"]
+    distance = _number(raw, where=here, what=f"a distance along the lever ({unit})")
+    if distance == 0:
+        raise _fail(here, "expected a non-zero distance (a second mounting moves the body)")
+    return body, distance * factor
+
+
+def _added_masses(value: object, *, where: str) -> tuple[tuple[float, float, float], ...]:
+    """A trial's ``added_mass``: one table or a list of them, as sorted (m, x, rho) in SI."""
+    entries = [value] if isinstance(value, dict) else value
+    if not isinstance(entries, list) or not entries:
+        raise _fail(
+            where,
+            "expected { mass = kg, com_distance = m, radius_of_gyration = m } or a list of "
+            f"such tables, got {value!r}",
+        )
+    out = []
+    for j, raw in enumerate(entries):
+        here = f"{where}[{j}]" if isinstance(value, list) else where
+        table = _table(raw, where=here, what="mass = kg, com_distance = m, ...")
+        for k in table:
+            if k not in ADDED_MASS_KEYS:
+                raise _fail(f"{here}.{k}", f"unknown key (allowed: {', '.join(ADDED_MASS_KEYS)})")
+        for k in ("mass", "com_distance"):
+            if k not in table:
+                raise _fail(f"{here}.{k}", f"missing ({'kg' if k == 'mass' else 'm'})")
+        mass = _positive(table["mass"], where=f"{here}.mass", unit="kg")
+        distance = _number(
+            table["com_distance"],
+            where=f"{here}.com_distance",
+            what="a distance from the joint axis in m (negative: across the axis)",
+        )
+        radius = _number(
+            table.get("radius_of_gyration", 0.0),
+            where=f"{here}.radius_of_gyration",
+            what="a radius of gyration >= 0 in m",
+        )
+        if radius < 0:
+            raise _fail(
+                f"{here}.radius_of_gyration", f"expected a radius >= 0 (m), got {radius!r}"
+            )
+        out.append((mass, distance, radius))
+    return tuple(sorted(out))
+
+
+def _condition_key(trial: TrialSpec) -> tuple[Any, ...]:
+    """What makes two trials the same condition (distances compared to the nanometre)."""
+    return (
+        trial.bodies,
+        trial.offset_body,
+        round(trial.offset, 9),
+        tuple(tuple(round(v, 9) for v in added) for added in trial.added),
+    )
+
+
+def _label_conditions(trials: list[TrialSpec]) -> list[TrialSpec]:
+    """Give every trial its condition's unique label (:func:`condition_label`).
+
+    A trial without offset or added mass keeps the label it has (its bodies joined by ``+``).
+    """
+    labels: dict[tuple[Any, ...], str] = {}
+    taken: set[str] = set()
+    for trial in trials:
+        key = _condition_key(trial)
+        if key in labels:
+            continue
+        label = condition_label(trial.bodies, trial.offset_body, trial.offset, trial.added)
+        stem, n = label, 1
+        while label in taken:
+            n += 1
+            label = f"{stem}_{n}"
+        labels[key] = label
+        taken.add(label)
+    return [replace(t, condition=labels[_condition_key(t)]) for t in trials]
 
 
 def _trial(
@@ -689,6 +979,16 @@ def _trial(
     if speed is not None:
         speed = _positive(speed, where=f"{here}.speed", unit="deg/s")
     window = _window(entry["window"], where=f"{here}.window") if "window" in entry else None
+    offset_body, offset = (
+        _offset(entry["offset"], where=f"{here}.offset", bodies=bodies)
+        if "offset" in entry
+        else ("", 0.0)
+    )
+    added = (
+        _added_masses(entry["added_mass"], where=f"{here}.added_mass")
+        if "added_mass" in entry
+        else ()
+    )
 
     own = _settings(entry, where=here)
     fmt = own.get("format", defaults.get("format", "csv"))
@@ -726,4 +1026,7 @@ def _trial(
         options=merged["options"],
         index=i,
         lag=own.get("lag", defaults.get("lag")),
+        offset_body=offset_body,
+        offset=offset,
+        added=added,
     )

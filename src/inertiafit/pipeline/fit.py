@@ -92,11 +92,17 @@ def run_fit(
     hdi_prob: float = 0.95,
     echo: Callable[[str], None] = print,
     shown_as: str | Path | None = None,
+    mass: float | None = None,
+    mass_sd: float | None = None,
+    com_distance: float | None = None,
+    com_distance_sd: float | None = None,
 ) -> Posterior:
     """``inertiafit fit``: posterior of one body, written to ``out`` and printed.
 
     ``shown_as`` is the folder named in the closing line when ``out`` is a temporary folder
-    that will be renamed (the demo).
+    that will be renamed (the demo). ``mass``/``mass_sd`` (a weighing, kg) and
+    ``com_distance``/``com_distance_sd`` (a balance point, m) are passed to
+    :func:`~inertiafit.inference.fit.fit_body`.
     """
     prior_obj = load_prior(prior)
     post = fit_body(
@@ -112,6 +118,10 @@ def run_fit(
         gravity=gravity,
         torque_gain_sd=torque_gain_sd,
         seed=seed,
+        mass=mass,
+        mass_sd=mass_sd,
+        com_distance=com_distance,
+        com_distance_sd=com_distance_sd,
     )
     result = fit_result(
         post,

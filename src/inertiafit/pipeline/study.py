@@ -172,7 +172,10 @@ def analyse_study(
     }
     post = fit(model, seed=seed, inputs=inputs, provenance=provenance)
     notes = list(processed.warnings)
-    baselines = paper_baselines(used, study.conditions, priors, gravity=study.gravity, notes=notes)
+    # The paper's estimator knows bodies mounted as they are: a second mounting or added masses
+    # would pass for the same set of bodies (and overwrite its means).
+    plain = {k: v.bodies for k, v in study.condition_specs.items() if v.plain}
+    baselines = paper_baselines(used, plain, priors, gravity=study.gravity, notes=notes)
     return make_result(
         name=study.name,
         posterior=post,

@@ -1,29 +1,161 @@
-"""A simulated study on disk: one CSV per trial, a ``study.toml`` manifest and ``truth.toml``."""
+"""A simulated study on disk: one CSV per trial, a ``study.toml`` manifest and ``truth.toml``.
+
+Besides sets of bodies, a condition may be a second mounting (a body moved along the lever) or
+carry known added masses, and bodies may be weighed or balanced (``measured``): the extra
+information of :mod:`inertiafit.io.manifest`, written into the manifest as a lab would.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from inertiafit.physics import GRAVITY
+from inertiafit.physics import GRAVITY, point_moments
 from inertiafit.simulate.files import VELOCITY_UNITS, check_units, toml_value, write_trial_csv
 from inertiafit.simulate.signals import Body, Motion, Noise, simulate_trial
 
 __all__ = ["simulate_study"]
 
 
+#: Keys of a condition given as a mapping.
+_CONDITION_KEYS = ("bodies", "offset", "added_mass")
+#: Keys of one added mass.
+_ADDED_KEYS = ("mass", "com_distance", "radius_of_gyration")
+
+
 def _condition_labels(n: int) -> list[str]:
     return [chr(ord("A") + i) if i < 26 else f"C{i}" for i in range(n)]
+
+
+@dataclass(frozen=True)
+class _Mounting:
+    """One simulated condition: its bodies, a body moved along the lever, added masses."""
+
+    bodies: tuple[str, ...]
+    offset_body: str = ""
+    offset: float = 0.0
+    added: tuple[dict[str, float], ...] = ()
+
+    def mounted(self, truth: Mapping[str, Body]) -> list[Body]:
+        """The bodies as mounted: the moved one with its centre of mass ``offset`` further out."""
+        out = []
+        for b in self.bodies:
+            body = truth[b]
+            if b == self.offset_body:
+                body = Body(body.mass, body.radius_of_gyration, body.com_distance + self.offset)
+            out.append(body)
+        return out
+
+    def totals(self, truth: Mapping[str, Body], gravity: float) -> tuple[float, float]:
+        """The condition's true ``I`` (kg m^2) and ``M_g`` (N m), added masses included."""
+        mounted = self.mounted(truth)
+        i_total = sum(body.inertia for body in mounted)
+        mg_total = sum(body.gravity_moment(gravity) for body in mounted)
+        for mass in self.added:  # only when there are any: plain studies keep their bytes
+            a, i = point_moments(mass["mass"], mass["com_distance"], mass["radius_of_gyration"])
+            i_total += float(i)
+            mg_total += float(a) * gravity
+        return i_total, mg_total
+
+    def manifest_lines(self) -> list[str]:
+        """``offset`` and ``added_mass`` of a ``[[trials]]`` entry (none for a plain one)."""
+        lines = []
+        if self.offset_body:
+            lines.append(f"offset = {toml_value({self.offset_body: self.offset})}")
+        if self.added:
+            lines.append(f"added_mass = {toml_value(list(self.added))}")
+        return lines
+
+
+def _mounting(
+    condition: Sequence[str] | Mapping[str, Any], truth: Mapping[str, Body]
+) -> _Mounting:
+    """Check one entry of ``conditions``: a sequence of body names or a mapping."""
+    if not isinstance(condition, Mapping):
+        mounting = _Mounting(tuple(condition))
+    else:
+        unknown = [k for k in condition if k not in _CONDITION_KEYS]
+        if unknown or "bodies" not in condition:
+            msg = (
+                f"condition {dict(condition)!r}: expected keys {', '.join(_CONDITION_KEYS)} "
+                "(bodies required)"
+            )
+            raise ValueError(msg)
+        bodies = tuple(condition["bodies"])
+        offset = dict(condition.get("offset") or {})
+        if len(offset) > 1:
+            msg = f"condition {bodies}: offset moves exactly one body, got {offset!r}"
+            raise ValueError(msg)
+        offset_body, d = next(iter(offset.items())) if offset else ("", 0.0)
+        if offset_body and (offset_body not in bodies or not np.isfinite(d) or d == 0):
+            msg = f"condition {bodies}: offset {offset!r} must move a mounted body a non-zero d"
+            raise ValueError(msg)
+        raw = condition.get("added_mass") or ()
+        added = []
+        for mass in [raw] if isinstance(raw, Mapping) else raw:
+            if any(k not in _ADDED_KEYS for k in mass) or not {"mass", "com_distance"} <= set(
+                mass
+            ):
+                msg = f"condition {bodies}: added mass {dict(mass)!r}: keys {_ADDED_KEYS}"
+                raise ValueError(msg)
+            added.append(
+                {
+                    "mass": float(mass["mass"]),
+                    "com_distance": float(mass["com_distance"]),
+                    "radius_of_gyration": float(mass.get("radius_of_gyration", 0.0)),
+                }
+            )
+        mounting = _Mounting(bodies, str(offset_body), float(d), tuple(added))
+    for b in mounting.bodies:
+        if b not in truth:
+            msg = f"condition {mounting.bodies} names unknown body {b!r}"
+            raise ValueError(msg)
+    return mounting
+
+
+def _readings(
+    measured: Mapping[str, Mapping[str, float | Sequence[float]]],
+    truth: Mapping[str, Body],
+    seed: np.random.SeedSequence,
+) -> dict[str, dict[str, dict[str, float]]]:
+    """Weighings and balance points to write: drawn from the truth, or as given.
+
+    A number is the measurement's SD: the reading is the true value plus a Gaussian error of
+    that SD (seeded), as a real scale's would be. A pair ``(value, sd)`` is written as given.
+    """
+    rng = np.random.default_rng(seed)
+    out: dict[str, dict[str, dict[str, float]]] = {}
+    for b, table in measured.items():
+        if b not in truth:
+            msg = f"measured: unknown body {b!r}"
+            raise ValueError(msg)
+        out[b] = {}
+        for key, spec in table.items():
+            if key not in ("mass", "com_distance"):
+                msg = f"measured.{b}: unknown quantity {key!r} (mass, com_distance)"
+                raise ValueError(msg)
+            if isinstance(spec, int | float):
+                true = truth[b].mass if key == "mass" else truth[b].com_distance
+                sd = float(spec)
+                value = float(true + sd * rng.standard_normal())
+            else:
+                value, sd = map(float, spec)
+            if not (sd > 0 and value > 0 and np.isfinite(value + sd)):
+                msg = f"measured.{b}.{key}: need a positive value and SD, got {value!r}, {sd!r}"
+                raise ValueError(msg)
+            out[b][key] = {"value": value, "sd": sd}
+    return out
 
 
 def simulate_study(
     out_dir: str | Path,
     *,
     bodies: Mapping[str, Sequence[float]],
-    conditions: Sequence[Sequence[str]],
+    conditions: Sequence[Sequence[str] | Mapping[str, Any]],
     speeds: Sequence[float] = (240.0, 270.0, 300.0),
     trials_per_speed: int = 10,
     seed: int | None = 0,
@@ -41,6 +173,7 @@ def simulate_study(
     sampling: str = "instant",
     priors: Mapping[str, str | Mapping[str, Any]] | None = None,
     name: str = "Simulated study",
+    measured: Mapping[str, Mapping[str, float | Sequence[float]]] | None = None,
 ) -> Path:
     """Write a simulated study: one CSV per trial and a ``study.toml`` manifest.
 
@@ -57,9 +190,15 @@ def simulate_study(
         Folder to write into (created; files of the same names are replaced).
     bodies : mapping of str to (mass, radius_of_gyration, com_distance)
         True parameters of each body (kg, m, m).
-    conditions : sequence of sequence of str
+    conditions : sequence of (sequence of str or mapping)
         The bodies mounted in each condition, e.g. ``[("attachment",), ("attachment",
-        "weight")]``; conditions are labelled A, B, ... in file names.
+        "weight")]``; conditions are labelled A, B, ... in file names. A mapping
+        ``{"bodies": (...), "offset": {"weight": 0.05}, "added_mass": [{"mass": 0.5,
+        "com_distance": 0.3, "radius_of_gyration": 0.0}]}`` is a second mounting (the named
+        body's centre of mass ``d`` metres further out along the lever) and/or known added
+        masses (``radius_of_gyration`` optional, default 0); the trials see the moved body and
+        the added masses, and the manifest's ``[[trials]]`` carry ``offset`` and
+        ``added_mass``.
     speeds : sequence of float
         Preset speeds of the fast trials (deg/s).
     trials_per_speed : int
@@ -93,6 +232,12 @@ def simulate_study(
         on the body's values: a prior name or path (str) or an inline table.
     name : str
         The manifest's ``name``.
+    measured : mapping of str to mapping of str to (float or (float, float)), optional
+        Weighings and balance points written into the manifest (``[bodies.<name>] mass`` and
+        ``com_distance`` with their ``sd``), e.g. ``{"weight": {"mass": 0.005}}``. A number is
+        the measurement's SD, and the reading written is the true value plus a seeded Gaussian
+        error of that SD (a simulated scale is as honest as a real one); a pair ``(value,
+        sd)`` is written exactly as given. ``truth.toml`` keeps the true values.
 
     Returns
     -------
@@ -102,18 +247,15 @@ def simulate_study(
     Raises
     ------
     ValueError
-        On an unknown unit, a condition naming an unknown body, or no conditions.
+        On an unknown unit, a condition naming an unknown body, a bad offset, added mass or
+        measurement, or no conditions.
     """
     check_units(angle_unit=angle_unit, torque_unit=torque_unit, time_unit=time_unit)
     if not conditions:
         msg = "no conditions"
         raise ValueError(msg)
     truth = {b: Body(*map(float, values)) for b, values in bodies.items()}
-    for condition in conditions:
-        for b in condition:
-            if b not in truth:
-                msg = f"condition {tuple(condition)} names unknown body {b!r}"
-                raise ValueError(msg)
+    mountings = [_mounting(condition, truth) for condition in conditions]
     priors = dict(priors or {})
 
     out = Path(out_dir)
@@ -122,6 +264,8 @@ def simulate_study(
     labels = _condition_labels(len(conditions))
     root = np.random.SeedSequence(seed)
     condition_seeds = root.spawn(len(conditions))
+    # Spawned after the conditions' seeds, so that measuring leaves every trial's bytes alone.
+    readings = _readings(measured, truth, root.spawn(1)[0]) if measured else {}
 
     lines = [f"name = {toml_value(name)}", f"gravity = {toml_value(gravity)}", ""]
     for b, body in truth.items():
@@ -130,7 +274,9 @@ def simulate_study(
             "radius_of_gyration": body.radius_of_gyration,
             "com_distance": body.com_distance,
         }
-        lines += [f"[bodies.{b}]", f"prior = {toml_value(spec)}", ""]
+        lines += [f"[bodies.{b}]", f"prior = {toml_value(spec)}"]
+        lines += [f"{key} = {toml_value(v)}" for key, v in readings.get(b, {}).items()]
+        lines.append("")
     lines += [
         "[defaults]",
         'columns = { time = "time", angle = "angle", velocity = "velocity", torque = "torque" }',
@@ -146,10 +292,8 @@ def simulate_study(
         "",
     ]
 
-    for label, condition, cseed in zip(labels, conditions, condition_seeds, strict=True):
-        mounted = [truth[b] for b in condition]
-        i_total = sum(body.inertia for body in mounted)
-        mg_total = sum(body.gravity_moment(gravity) for body in mounted)
+    for label, mounting, cseed in zip(labels, mountings, condition_seeds, strict=True):
+        i_total, mg_total = mounting.totals(truth, gravity)
         plan = [("quasi-static", quasi_static_speed, f"{label}_quasistatic.csv")]
         plan += [
             ("fast", float(speed), f"{label}_{speed:g}_{k + 1:02d}.csv")
@@ -183,17 +327,18 @@ def simulate_study(
             lines += [
                 "[[trials]]",
                 f"file = {toml_value('data/' + filename)}",
-                f"bodies = {toml_value(list(condition))}",
+                f"bodies = {toml_value(list(mounting.bodies))}",
                 f"kind = {toml_value(kind)}",
             ]
             if kind == "fast":
                 lines.append(f"speed = {toml_value(speed)}")
+            lines += mounting.manifest_lines()
             lines.append("")
 
     manifest = out / "study.toml"
     manifest.write_text("\n".join(lines), encoding="utf-8")
     _write_truth(
-        out / "truth.toml", truth, conditions, labels, gravity, phi, offset, noise or Noise()
+        out / "truth.toml", truth, mountings, labels, gravity, phi, offset, noise or Noise()
     )
     return manifest
 
@@ -201,7 +346,7 @@ def simulate_study(
 def _write_truth(
     path: Path,
     truth: Mapping[str, Body],
-    conditions: Sequence[Sequence[str]],
+    conditions: Sequence[_Mounting],
     labels: Sequence[str],
     gravity: float,
     phi: float,
@@ -212,6 +357,7 @@ def _write_truth(
 
     ``lag`` (s) and ``torque_gain`` are the torque channel's (``Noise.lag``,
     ``Noise.torque_gain``); the inertias and moments are the bodies' own, before the gain.
+    A condition's totals include its moved body and added masses, written with it.
     """
     lines = [
         "# True parameters of the simulated study (not read by the pipeline).",
@@ -232,13 +378,14 @@ def _write_truth(
             f"gravity_moment = {body.gravity_moment(gravity)!r}",
             "",
         ]
-    for label, condition in zip(labels, conditions, strict=True):
-        mounted = [truth[b] for b in condition]
+    for label, mounting in zip(labels, conditions, strict=True):
+        i_total, mg_total = mounting.totals(truth, gravity)
         lines += [
             f"[conditions.{label}]",
-            f"bodies = {toml_value(list(condition))}",
-            f"inertia = {sum(b.inertia for b in mounted)!r}",
-            f"gravity_moment = {sum(b.gravity_moment(gravity) for b in mounted)!r}",
+            f"bodies = {toml_value(list(mounting.bodies))}",
+            *mounting.manifest_lines(),
+            f"inertia = {i_total!r}",
+            f"gravity_moment = {mg_total!r}",
             "",
         ]
     path.write_text("\n".join(lines), encoding="utf-8")
