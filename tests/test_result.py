@@ -31,14 +31,18 @@ def test_text_report_states_intervals_identification_and_the_mass_bound(attachme
     assert "converged" in text
     assert "data + prior" in text
     assert "m >= (M_g/g)^2/I = 2.64" in text
-    # header lines, 5 quantities, one bound line, the calibration line
-    assert text.count("\n") == 1 + 5 + 1 + 1
+    # header lines, 5 quantities, one bound line, "what pins what" with a line per body,
+    # a correlation line per body, the calibration line
+    assert text.count("\n") == 1 + 5 + 1 + 2 + 1 + 1
+    assert "m, x and rho decided by the prior" in text
     assert text.endswith("every interval assumes an exact torque calibration.")
 
 
 def test_html_display_is_a_table(attachment):
     html = attachment._repr_html_()
     assert html.count("<tr>") == 1 + 5
+    assert "<th>prior share</th>" in html
+    assert html.count("<li>") == 2  # what pins what, and the correlations
     assert "radius_of_gyration" in html
     assert "kg m^2" in html
 

@@ -4,6 +4,8 @@
   :func:`inertiafit.cli.build_parser`, so the reference cannot drift from ``--help``.
 - ``.. inertiafit-priors::`` writes the table of shipped priors from
   :func:`inertiafit.inference.priors.available_priors`.
+- ``.. inertiafit-anthropometric::`` writes the anthropometric tables (fractions, lengths to
+  measure, spreads and sources) from the files in ``priors/anthropometric/``.
 - :func:`figure_scraper` lets sphinx-gallery show the matplotlib ``Figure`` objects an example
   holds (the examples never use pyplot, so the default scraper would find nothing).
 """
@@ -181,6 +183,77 @@ class PriorsTable(SphinxDirective):
         return container.children
 
 
+def anthropometric_table_rst() -> list[str]:
+    """One list-table per anthropometric table file: segment, length, fractions, spread."""
+    from inertiafit.inference.anthropometric import available_tables, load_table
+
+    lines: list[str] = []
+    for path in available_tables().values():
+        table = load_table(path)
+        names = ", ".join(f"``{n}``" for n in table.names())
+        spread = ", ".join(f"{p} {v:g}" for p, v in table.spread.items())
+        lines += [
+            f"**{rst_escape(table.title)}** — names: {names}",
+            "",
+            (
+                f"Source: {rst_escape(table.citation)}. Radius of gyration: the {table.radius} one,"
+                f" about the CoM. Spread (SD of log): {spread} — {rst_escape(table.spread_source)}."
+            ),
+            "",
+            ".. list-table::",
+            "   :header-rows: 1",
+            "   :widths: 14 34 13 13 13 13",
+            "",
+            "   * - segment",
+            "     - segment_length (proximal → distal)",
+            "     - mass / body mass",
+            "     - CoM / length, from proximal",
+            "     - radius / length, about CoM",
+            "     - own spread",
+        ]
+        for seg in table.segments.values():
+            cells = ["", "", ""]
+            if seg.unsupported:
+                cells = ["not given: " + seg.unsupported, "", ""]
+            elif seg.parts:
+                cells = ["composed of " + " + ".join(seg.parts), "", ""]
+            else:
+                for i, key in enumerate(("mass", "com", "radius")):
+                    cells[i] = " / ".join(
+                        f"{v[key]:.4g}" + (f" ({sex[0].upper()})" if sex else "")
+                        for sex, v in seg.fractions.items()
+                    )
+            own = ", ".join(f"{p} {v:g}" for p, v in seg.spread.items()) or " "
+            lines += [
+                f"   * - {rst_escape(seg.name)}",
+                f"     - {rst_escape(seg.length) or ' '}",
+                *(f"     - {rst_escape(c) or ' '}" for c in cells),
+                f"     - {rst_escape(own)}",
+            ]
+        lines += [""]
+    return lines
+
+
+class AnthropometricTable(SphinxDirective):
+    """``.. inertiafit-anthropometric::`` — the anthropometric tables, read from their files.
+
+    Used from a Markdown page, where the directive's own state parses Markdown; the generated
+    reStructuredText is therefore parsed by docutils' reStructuredText parser into a scratch
+    document whose nodes are returned.
+    """
+
+    has_content = False
+
+    def run(self) -> list[nodes.Node]:
+        """Parse the generated tables (reStructuredText) and return their nodes."""
+        from docutils.parsers.rst import Parser
+        from docutils.utils import new_document
+
+        document = new_document("inertiafit-anthropometric", self.state.document.settings)
+        Parser().parse("\n".join(anthropometric_table_rst()), document)
+        return list(document.children)
+
+
 def figure_scraper(_block: Any, block_vars: dict[str, Any], gallery_conf: dict, **kwargs) -> str:
     """Sphinx-gallery scraper: save every new matplotlib ``Figure`` an example's globals hold.
 
@@ -241,6 +314,7 @@ def setup(app) -> dict[str, Any]:
     """Register the directives, the root-toctree hook and nothing else."""
     app.add_directive("inertiafit-cli", CliReference)
     app.add_directive("inertiafit-priors", PriorsTable)
+    app.add_directive("inertiafit-anthropometric", AnthropometricTable)
     app.connect("source-read", _more_pages)
     app.connect("env-get-outdated", _reread_root)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}

@@ -1,6 +1,8 @@
 """From evidence to the posterior: priors, likelihood, model, sampler, exact reference.
 
 - :mod:`~inertiafit.inference.priors`: prior boxes, from files or tables;
+- :mod:`~inertiafit.inference.anthropometric`: priors from published anthropometric tables
+  (de Leva, Dempster/Winter), body mass and segment length;
 - :mod:`~inertiafit.inference.observations`: the likelihood of one observable;
 - :mod:`~inertiafit.inference.evidence`: where a study's trials become evidence;
 - :mod:`~inertiafit.inference.model`: the joint model in the sampled coordinates;

@@ -98,6 +98,44 @@ def _observed(model: Model) -> xr.Dataset:
     return xr.Dataset(out)
 
 
+def _log_prior(model: Model, run, coords: dict) -> xr.Dataset:
+    """The ``log_prior`` group: the prior's log density at every posterior draw.
+
+    ``body_prior`` ``(chain, draw, body)`` is :meth:`Prior.log_density` of the body's drawn
+    ``(m, x, rho)`` (up to a constant per body; constant on a box); ``torque_gain``
+    ``(chain, draw)``, with a torque gain, the normal log density of ``log gain`` (how the model
+    states that prior). ``arviz_stats.psense`` (``group="prior"``) sums every variable.
+    """
+    params = run.parameters
+    body_prior = np.stack(
+        [
+            model.priors[body].log_density(
+                params["mass"][..., k],
+                params["com_distance"][..., k],
+                params["radius_of_gyration"][..., k],
+            )
+            for k, body in enumerate(model.bodies)
+        ],
+        -1,
+    )
+    out = {
+        "body_prior": xr.DataArray(
+            body_prior,
+            dims=("chain", "draw", "body"),
+            attrs={"description": "log p(m, x, rho) of the body's prior, up to a constant"},
+        )
+    }
+    if model.has_gain:
+        sd = model.torque_gain_sd
+        z = np.log(params["torque_gain"]) / sd
+        out["torque_gain"] = xr.DataArray(
+            -0.5 * z * z - math.log(sd) - 0.5 * math.log(2 * math.pi),
+            dims=("chain", "draw"),
+            attrs={"description": "log density of log(torque gain) ~ N(0, torque_gain_sd^2)"},
+        )
+    return xr.Dataset(out, coords=coords)
+
+
 def build_tree(
     model: Model,
     run,
@@ -227,6 +265,7 @@ def build_tree(
             "posterior": posterior,
             "sample_stats": sample_stats,
             "log_likelihood": log_likelihood,
+            "log_prior": _log_prior(model, run, coords),
             "observed_data": _observed(model),
             "prior": prior,
             "constant_data": constant,

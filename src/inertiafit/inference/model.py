@@ -923,6 +923,8 @@ class Model:
         for cond in self.conditions:
             if len(cond.bodies) != 1 or not (cond.inertia and cond.gravity_moment):
                 continue
+            if cond.offset_body or cond.has_added:  # its totals are not the body's own
+                continue
             prior = self.priors[cond.bodies[0]]
             g0 = cond.gravity_moment.center
             a0 = g0 / self.gravity

@@ -33,6 +33,11 @@ The density outside the support is zero (the normal and lognormal lose 2e-6 of t
 An optional ``[reference]`` table carries published values to print beside the posterior
 (``label``, ``mass``, ``com_distance``, ``radius_of_gyration``, ``inertia`` in SI units).
 Files are parsed against this schema; nothing in them is executed.
+
+A table (a file, or an inline manifest table) may instead name an anthropometric table,
+``anthropometric = "de-leva-male"``, with ``segment``, ``body_mass`` and ``segment_length``:
+a lognormal prior per parameter from the published fractions (:mod:`.anthropometric`,
+:func:`anthropometric_prior`).
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ import numpy as np
 from scipy import special
 
 from inertiafit.errors import InputError
+from inertiafit.inference import anthropometric
 from inertiafit.io.units import si_factors
 from inertiafit.physics import PARAMETERS, UNITS
 
@@ -56,6 +62,7 @@ __all__ = [
     "DISTRIBUTIONS",
     "SUPPORT_QUANTILE",
     "Prior",
+    "anthropometric_prior",
     "available_priors",
     "load_prior",
     "parse_prior",
@@ -290,6 +297,8 @@ def parse_prior(
     """
     if not isinstance(table, dict):
         raise InputError(f"{where}: expected a table of prior parameters, got {table!r}")
+    if "anthropometric" in table:
+        table = anthropometric.prior_table(table, where=where)
     unknown = sorted(set(table) - _TOP_KEYS)
     if unknown:
         raise InputError(
@@ -370,6 +379,63 @@ def parse_prior(
         path=path,
         distribution=distribution,
     )
+
+
+def anthropometric_prior(
+    table: str,
+    segment: str,
+    body_mass: float,
+    segment_length: float | None = None,
+    *,
+    sex: str | None = None,
+    segment_lengths: dict[str, float] | None = None,
+    name: str | None = None,
+) -> Prior:
+    """A segment's prior from a published anthropometric table (lognormal per parameter).
+
+    Medians are the table's values for this subject (``m = fraction x body_mass``,
+    ``x = CoM fraction x segment_length`` from the proximal joint, ``rho = radius fraction x
+    segment_length`` about the CoM); each ``sd_log`` is the table file's population spread.
+
+    Parameters
+    ----------
+    table : str
+        ``"de-leva-female"``, ``"de-leva-male"`` or ``"dempster"`` (also ``"dempster-winter"``,
+        or ``"de-leva"`` with ``sex``).
+    segment : str
+        ``forearm``, ``hand``, ``forearm+hand``, ``upper-arm``, ``shank``, ``foot``,
+        ``shank+foot`` or ``thigh`` (de Leva has no foot nor shank + foot about a joint axis).
+    body_mass : float
+        kg.
+    segment_length : float
+        m; for ``forearm+hand`` and ``shank+foot`` the forearm's or the shank's length.
+    sex : str, optional
+        ``"female"`` or ``"male"`` when ``table`` names none.
+    segment_lengths : dict, optional
+        de Leva's forearm + hand: ``{"forearm": .., "hand": ..}`` (m) instead of
+        ``segment_length`` and the mean hand/forearm ratio.
+    name : str, optional
+        The body's name (default: the segment's).
+
+    Raises
+    ------
+    InputError
+        Unknown table or segment, a missing or absurd mass or length (one line).
+    """
+    spec: dict[str, Any] = {
+        "anthropometric": table,
+        "segment": segment,
+        "body_mass": body_mass,
+    }
+    for key, value in (
+        ("segment_length", segment_length),
+        ("segment_lengths", segment_lengths),
+        ("sex", sex),
+    ):
+        if value is not None:
+            spec[key] = value
+    label = name or str(segment)
+    return parse_prior(spec, name=label, where=f"prior of '{label}'")
 
 
 def _uniform_bounds(entry: dict, p: str, spread: float, scale: float, where: str):

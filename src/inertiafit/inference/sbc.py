@@ -60,6 +60,7 @@ import warnings
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -77,11 +78,13 @@ __all__ = [
     "EVIDENCE",
     "SBC_SETTINGS",
     "Design",
+    "Mounting",
     "SBCResult",
     "Simulation",
     "attachment_design",
     "calibrated",
     "calibration_table",
+    "condition_totals",
     "draw_truth_and_data",
     "hdi_contains",
     "run_sbc",
@@ -106,6 +109,56 @@ SBC_SETTINGS = SamplerSettings(
     max_steps=3000,
     progress=False,
 )
+
+
+@dataclass(frozen=True)
+class Mounting:
+    """A condition with a moved body or known added masses (:class:`Condition`'s fields).
+
+    ``offset`` must be positive (the simulated values then stay above the noise floor of the
+    bodies' unmoved totals).
+    """
+
+    bodies: tuple[str, ...]
+    offset_body: str = ""
+    offset: float = 0.0
+    added_first_moment: float = 0.0
+    added_inertia: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.offset_body and not self.offset > 0:
+            raise InputError(f"mounting offset: expected a positive distance, got {self.offset}")
+
+    @property
+    def label(self) -> str:
+        """``a+b``, with ``@body+d`` for a moved body and ``+added`` for added masses."""
+        label = "+".join(self.bodies)
+        if self.offset_body:
+            label += f"@{self.offset_body}+{self.offset:g}"
+        if self.added_first_moment or self.added_inertia:
+            label += "+added"
+        return label
+
+
+def condition_totals(
+    cond: Condition | Mounting, values: Mapping[str, Mapping[str, object]], gravity: float
+) -> dict[str, object]:
+    """True ``inertia`` and ``gravity_moment`` of a condition from its bodies' quantities.
+
+    ``values[body]`` holds ``mass``, ``inertia`` and ``gravity_moment`` (floats or arrays of
+    one shape); a moved body adds ``m d`` and ``2 a d + m d^2``, added masses their ``a``, ``I``.
+    """
+    a: Any = sum(np.asarray(values[b]["gravity_moment"], float) for b in cond.bodies) / gravity
+    b: Any = sum(np.asarray(values[k]["inertia"], float) for k in cond.bodies)
+    if cond.offset_body:
+        own = values[cond.offset_body]
+        m_k = np.asarray(own["mass"], float)
+        a_k = np.asarray(own["gravity_moment"], float) / gravity
+        d = cond.offset
+        a, b = a + m_k * d, b + 2 * a_k * d + m_k * d * d
+    a = a + cond.added_first_moment
+    b = b + cond.added_inertia
+    return {"inertia": b, "gravity_moment": gravity * a}
 
 
 @dataclass(frozen=True)
@@ -136,10 +189,14 @@ class Design:
         SD of the inertia's shared error, in units of its standard error (``mean_se`` only).
     coupling : float
         ``Condition.coupling`` of every condition, kg m^2 per N m (``mean_se`` only).
+    measured : mapping of str to mapping of str to float
+        Direct measurements simulated per body: ``{"disk": {"mass": 0.01}}`` reads the true
+        ``mass`` (kg) or ``com_distance`` (m) with a Gaussian error of that SD (a design
+        constant), which the model takes as known.
     """
 
     priors: Mapping[str, Prior]
-    conditions: tuple[tuple[str, ...], ...]
+    conditions: tuple[tuple[str, ...] | Mounting, ...]
     evidence: str = "values"
     n_trials: int = 5
     noise: float = 0.15
@@ -148,6 +205,7 @@ class Design:
     torque_gain_sd: float = 0.0
     shared: float = 0.0
     coupling: float = 0.0
+    measured: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.evidence not in EVIDENCE:
@@ -179,7 +237,18 @@ class Design:
             extra += ", coupled"
         if self.torque_gain_sd:
             extra += f", gain {100 * self.torque_gain_sd:g}%"
+        kinds = sorted({k for table in self.measured.values() for k in table})
+        if kinds:
+            extra += ", measured " + "+".join(kinds)
+        if any(isinstance(c, Mounting) and c.offset_body for c in self.conditions):
+            extra += ", second mounting"
+        if any(isinstance(c, Mounting) and c.added_inertia for c in self.conditions):
+            extra += ", added mass"
         return f"{shape}, {self.evidence}{extra}"
+
+    def mountings(self) -> list[Mounting]:
+        """Every condition as a :class:`Mounting`."""
+        return [c if isinstance(c, Mounting) else Mounting(tuple(c)) for c in self.conditions]
 
     def noise_range(self, bodies: Sequence[str], observable: str) -> tuple[float, float]:
         """``(sigma_lo, sigma_hi)`` of one trial of ``observable`` on these bodies."""
@@ -242,6 +311,7 @@ class Simulation:
     conditions: tuple[Condition, ...]
     noise_ranges: dict[tuple[str, str], tuple[float, float]]
     design: Design
+    measured: dict[str, dict[str, Observation]] = field(default_factory=dict)
 
     def model(self, scale: float = 1.0, *, systematics: bool = True) -> Model:
         """The model fitted to this study.
@@ -264,14 +334,23 @@ class Simulation:
                 scaled(c.gravity_moment),
                 c.label,
                 c.coupling if systematics else 0.0,
+                offset_body=c.offset_body,
+                offset=c.offset,
+                added_first_moment=c.added_first_moment,
+                added_inertia=c.added_inertia,
             )
             for c in self.conditions
         ]
+        measured = {
+            body: {key: obs.scaled(scale) for key, obs in table.items()}
+            for body, table in self.measured.items()
+        }
         return Model(
             self.design.priors,
             conditions,
             gravity=self.design.gravity,
             torque_gain_sd=self.design.torque_gain_sd if systematics else 0.0,
+            measured=measured,
         )
 
 
@@ -291,13 +370,15 @@ def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
         truth["calibration"] = {"torque_gain": gain}
     n = int(design.n_trials)
     conditions, ranges = [], {}
-    for bodies in design.conditions:
-        label = "+".join(bodies)
+    for mounting in design.mountings():
+        bodies = mounting.bodies
+        label = mounting.label
+        totals = condition_totals(mounting, truth, g)
         obs = {}
         error_g = 0.0
         # coupled: the gravity moment first, the inertia's error follows it
         for name in OBSERVABLES[::-1] if design.coupling else OBSERVABLES:
-            mu = gain * sum(truth[b][name] for b in bodies)
+            mu = gain * float(totals[name])  # type: ignore[arg-type]
             lo, hi = design.noise_range(bodies, name)
             sigma = math.exp(rng.uniform(math.log(lo), math.log(hi)))
             where = f"{label} {name}"
@@ -322,9 +403,26 @@ def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
             if design.evidence != "mean_se":
                 ranges[(label, name)] = (lo, hi)
         conditions.append(
-            Condition(tuple(bodies), obs["inertia"], obs["gravity_moment"], label, design.coupling)
+            Condition(
+                tuple(bodies),
+                obs["inertia"],
+                obs["gravity_moment"],
+                label,
+                design.coupling,
+                offset_body=mounting.offset_body,
+                offset=mounting.offset,
+                added_first_moment=mounting.added_first_moment,
+                added_inertia=mounting.added_inertia,
+            )
         )
-    return Simulation(truth, tuple(conditions), ranges, design)
+    measured: dict[str, dict[str, Observation]] = {}
+    for body, table in design.measured.items():
+        for key, sd in table.items():
+            reading = truth[body][key] + sd * rng.standard_normal()
+            measured.setdefault(body, {})[key] = Observation.from_mean_se(
+                reading, sd, where=f"measured {body} {key}"
+            )
+    return Simulation(truth, tuple(conditions), ranges, design, measured)
 
 
 def truncation_log_weights(
@@ -346,7 +444,7 @@ def truncation_log_weights(
             lo, hi = sim.noise_ranges[(cond.label, name)]
             obs: Observation = getattr(cond, name)
             n = obs.n
-            mu = sum(np.asarray(draws[b][name]) for b in cond.bodies)
+            mu = np.asarray(condition_totals(cond, draws, sim.design.gravity)[name])
             if "calibration" in draws:  # the observations are of the gain times the truth
                 mu = mu * np.asarray(draws["calibration"]["torque_gain"])
             sd2 = n * obs.scale**2  # s^2

@@ -9,6 +9,9 @@ Groups of the tree (ArviZ 1.x conventions, walkers as chains):
     ``lp``: log posterior density of the sampled coordinates (up to a constant).
 ``log_likelihood``
     ``inertia`` and ``gravity_moment``: one term per condition's evidence.
+``log_prior``
+    ``body_prior`` ``(chain, draw, body)``: the prior's log density of each draw's
+    ``(m, x, rho)``; ``torque_gain`` with a torque gain. What ``arviz_stats.psense`` scales.
 ``observed_data``
     The trial values (or the single summarised value) per condition.
 ``prior``
@@ -34,7 +37,7 @@ from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
 from inertiafit.io.outputs import write_csv
 from inertiafit.physics import PARAMETERS, REPORTED, SYMBOLS
-from inertiafit.posterior import display
+from inertiafit.posterior import display, pins
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -166,10 +169,18 @@ class Posterior:
         return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
 
     def identification(self) -> pd.DataFrame:
-        """Posterior SD over prior SD per body and parameter, with who decides it.
+        """Who decides each parameter: SD ratio, the prior's share and the sources that pin it.
 
-        A ratio near 0 means the data pin the parameter; near 1 the posterior is as wide as
-        the prior box, so only the prior speaks. ``minimum_mass`` is the bound
+        Columns: ``posterior_sd``, ``prior_sd`` and their ``sd_ratio`` (near 0: the posterior is
+        much narrower than the prior; near 1: as wide), ``identified_by`` (its verdict, see
+        :func:`identification_verdict`); ``prior_share``, ``d log(posterior SD) / d log(prior
+        scale)`` of the body's prior (1: the prior alone sets the width, 0: the data do; see
+        :mod:`inertiafit.posterior.pins`); ``calibration_share``, the same for the torque gain's
+        prior (``nan`` without one); ``psense_prior`` and ``psense_likelihood``, the
+        power-scaling sensitivities of ``arviz_stats.psense`` (the prior's is ``nan`` for a
+        box, which power-scaling leaves unchanged); ``pinned_by``, ``prior``, the sources
+        (``data``, ``weighed mass``, ``balance point``, ``second mounting``) or both
+        (``... + prior``) from the prior share; and ``minimum_mass``, the bound
         ``(M_g/g)^2 / I`` at the posterior medians.
         """
         if ("identification",) not in self._cache:
@@ -179,13 +190,28 @@ class Posterior:
     def _identification(self) -> pd.DataFrame:
         rows = []
         g = float(self.tree["constant_data"]["gravity"])
+        specs = pins.prior_specs(self.tree)
+        cd, post_group = self.tree["constant_data"], self.tree["posterior"]
+        gain_sd = float(cd["torque_gain_sd"]) if "torque_gain_sd" in cd else 0.0
+        gain_draws = (
+            np.asarray(post_group["torque_gain"].values) if "torque_gain" in post_group else None
+        )
         for body in self.bodies:
             i_med = float(np.median(self.draws(body, "inertia")))
             mg_med = float(np.median(self.draws(body, "gravity_moment")))
+            draws = {p: self.draws(body, p) for p in REPORTED}
+            share = pins.prior_share(draws, specs[body])
+            gain = pins.prior_share(draws, None, torque_gain=gain_draws, torque_gain_sd=gain_sd)
+            sens = self._sensitivities(body, specs[body])
+            sources = pins.body_sources(self.tree, body)
             for p in REPORTED:
-                post = float(self.draws(body, p).std())
+                post = float(draws[p].std())
                 prior = float(self.draws(body, p, "prior").std())
                 ratio = post / prior
+                verdict = identification_verdict(ratio)
+                counted = pins.counted_sources(
+                    sources, p, {s: sens.get((s, p), 1.0) for s in sources}
+                )
                 rows.append(
                     {
                         "body": body,
@@ -193,11 +219,80 @@ class Posterior:
                         "posterior_sd": post,
                         "prior_sd": prior,
                         "sd_ratio": ratio,
-                        "identified_by": identification_verdict(ratio),
+                        "identified_by": verdict,
+                        "prior_share": share[p],
+                        "calibration_share": gain[p],
+                        "psense_prior": sens.get(("prior", p), np.nan),
+                        "psense_likelihood": sens.get(("likelihood", p), np.nan),
+                        "pinned_by": pins.pinned_by(share[p], counted, verdict, gain[p]),
                         "minimum_mass": (mg_med / g) ** 2 / i_med,
                     }
                 )
         return pd.DataFrame(rows)
+
+    def _sensitivities(self, body: str, specs: dict) -> dict[tuple[str, str], float]:
+        """Psense of the body's quantities: to the prior, the whole likelihood, each source.
+
+        Keys ``(what, quantity)``; ``what`` is ``prior`` (priors that are not a box),
+        ``likelihood``, and with more than one source each source's name.
+        """
+        ds = xr.Dataset({p: self.tree["posterior"][p].sel(body=body, drop=True) for p in REPORTED})
+        found: dict[tuple[str, str], float] = {}
+
+        def add(what: str, term: xr.DataArray) -> None:
+            for q, v in pins.sensitivity(ds, term).items():
+                found[(what, q)] = v
+
+        lp = self.tree["log_prior"].to_dataset() if "log_prior" in self.tree.children else None
+        if (
+            lp is not None
+            and "body_prior" in lp
+            and not all(not s["gaussian"] for s in specs.values())
+        ):
+            add("prior", lp["body_prior"].sel(body=body, drop=True))
+        if "log_likelihood" in self.tree.children:
+            ll = self.tree["log_likelihood"].to_dataset()
+            total = sum(
+                (ll[v].sum([d for d in ll[v].dims if d not in ("chain", "draw")]) for v in ll),
+                xr.zeros_like(ds["mass"]),
+            )
+            add("likelihood", total)
+            terms = pins.source_terms(self.tree, body)
+            if len(terms) > 1:
+                for name, term in terms.items():
+                    add(name, term)
+        return found
+
+    def correlations(self) -> pd.DataFrame:
+        """Posterior correlations of ``m``, ``x`` and ``rho``: a row per body.
+
+        Columns ``body``, ``corr_m_x``, ``corr_m_rho``, ``corr_x_rho``. On one rotation axis
+        the draws lie near the curve of constant ``m x`` and ``I``, so ``m`` and ``x`` are
+        strongly anti-correlated unless more information pins them.
+        """
+        if ("correlations",) not in self._cache:
+            self._cache[("correlations",)] = pd.DataFrame(
+                pins.correlation_table(self.tree),
+                columns=["body", "corr_m_x", "corr_m_rho", "corr_x_rho"],
+            )
+        return self._cache[("correlations",)].copy()
+
+    def what_pins_what(self) -> dict[str, str]:
+        """One line per body naming the information that pins each of its quantities.
+
+        Built from :meth:`identification` (``pinned_by``, ``prior_share``) and the sources the
+        body has; e.g. ``"attachment: I and M_g pinned by the data; m, x and rho decided by the
+        prior within the range the data allow (prior share 0.95-1.10) - weigh it, ..."``.
+        """
+        ident = self.identification()
+        return {
+            body: pins.pins_line(
+                body,
+                ident[ident.body == body].to_dict("records"),
+                pins.body_sources(self.tree, body),
+            )
+            for body in self.bodies
+        }
 
     def write_summary(self, path: str | Path, hdi_prob: float = 0.95) -> Path:
         """Write :meth:`summary` as CSV with fixed formatting (same draws → same bytes)."""

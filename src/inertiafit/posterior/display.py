@@ -1,7 +1,8 @@
 """Text and HTML display of a :class:`~inertiafit.posterior.Posterior`.
 
 :func:`text_report` is what ``print(post)`` and the command line show; :func:`html_table` is
-the Jupyter display. Both read the posterior's summary and identification tables only.
+the Jupyter display. Both read the posterior's summary, identification and correlation tables
+and its "what pins what" lines only.
 """
 
 from __future__ import annotations
@@ -15,16 +16,40 @@ from inertiafit.physics import UNITS
 if TYPE_CHECKING:
     from inertiafit.posterior.core import Posterior
 
-__all__ = ["html_table", "table_rows", "text_report"]
+__all__ = ["correlation_text", "html_table", "share_text", "table_rows", "text_report"]
 
 
 def table_rows(post: Posterior, hdi_prob: float) -> list[dict[str, Any]]:
-    """Summary rows with who identifies each quantity (``identified_by``, ``sd_ratio``)."""
+    """Summary rows with who identifies each quantity.
+
+    Adds ``identified_by``, ``sd_ratio`` and ``prior_share`` of :meth:`Posterior.identification`.
+    """
     s = post.summary(hdi_prob)
     ident = post.identification()
     return [
-        {**r.to_dict(), "identified_by": q["identified_by"], "sd_ratio": q["sd_ratio"]}
+        {
+            **r.to_dict(),
+            "identified_by": q["identified_by"],
+            "sd_ratio": q["sd_ratio"],
+            "prior_share": q["prior_share"],
+        }
         for (_, r), (_, q) in zip(s.iterrows(), ident.iterrows(), strict=True)
+    ]
+
+
+def share_text(value: float) -> str:
+    """A prior share with two decimals; blank when it could not be estimated."""
+    if not math.isfinite(value):
+        return ""
+    return f"{0.0 if abs(value) < 0.005 else value:.2f}"
+
+
+def correlation_text(post: Posterior) -> list[str]:
+    """One line per body: the posterior correlations of m, x and rho."""
+    return [
+        f"{r.body}: posterior correlations m-x {r.corr_m_x:+.2f}, m-rho {r.corr_m_rho:+.2f}, "
+        f"x-rho {r.corr_x_rho:+.2f}"
+        for r in post.correlations().itertuples(index=False)
     ]
 
 
@@ -40,7 +65,7 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
         + ("converged" if post.converged else "NOT CONVERGED"),
         (
             f"{'body':<{width}}{'parameter':<28}{'median':>10}  {pct:<24}{'sd':>10}  "
-            f"{'R-hat':>6} {'ESS':>6}  identified by (post/prior SD)"
+            f"{'R-hat':>6} {'ESS':>6} {'prior share':>11}  identified by (post/prior SD)"
         ),
     ]
     for r in table_rows(post, hdi_prob):
@@ -49,7 +74,8 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
         interval = f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]"
         lines.append(
             f"{r['body']:<{width}}{name:<28}{r['median']:>10.4g}  {interval:<24}{r['sd']:>10.3g}  "
-            f"{r['r_hat']:>6.3f} {r['ess_bulk']:>6.0f}  {r['identified_by']} "
+            f"{r['r_hat']:>6.3f} {r['ess_bulk']:>6.0f} {share_text(r['prior_share']):>11}  "
+            f"{r['identified_by']} "
             f"({r['sd_ratio']:.2f})"
         )
     ident = post.identification()
@@ -59,6 +85,9 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
             f"{body}: the data identify m x and I; physical consistency needs "
             f"m >= (M_g/g)^2/I = {mmin:.4g} kg"
         )
+    lines.append("What pins what (prior share: d log posterior SD / d log prior scale):")
+    lines += [f"  {line}" for line in post.what_pins_what().values()]
+    lines += correlation_text(post)
     lines.append(post.calibration_note())
     return "\n".join(lines)
 
@@ -72,6 +101,7 @@ _HTML_HEAD = (
     "sd",
     "R-hat",
     "ESS bulk",
+    "prior share",
     "identified by",
 )
 
@@ -94,6 +124,7 @@ def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
                 f"{r['sd']:.3g}",
                 f"{r['r_hat']:.3f}",
                 f"{r['ess_bulk']:.0f}",
+                share_text(r["prior_share"]),
                 f"{r['identified_by']} ({r['sd_ratio']:.2f})",
             )
         )
@@ -101,8 +132,11 @@ def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
         for r in table_rows(post, hdi_prob)
     )
     status = "converged" if post.converged else "<b>not converged</b>"
+    pins = "".join(f"<li>{html.escape(line)}</li>" for line in post.what_pins_what().values())
+    corr = "".join(f"<li>{html.escape(line)}</li>" for line in correlation_text(post))
     return (
         f"<div><p><b>inertiafit posterior</b> ({status}, seed {post.tree.attrs.get('seed')})"
         f"</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+        f"<p>What pins what:</p><ul>{pins}</ul><ul>{corr}</ul>"
         f"<p>{html.escape(post.calibration_note())}</p></div>"
     )

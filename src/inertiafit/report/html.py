@@ -1,8 +1,8 @@
 """A self-contained ``report.html``: tables and figures embedded, readable without a network.
 
 :func:`write_report` writes any page of sections; :func:`study_report` lays out the page of a
-:class:`~inertiafit.report.result.Result` (posterior, comparison, corner plots, identification
-curves, trials, speed effect, diagnostics, provenance): skipped trials, if any, come first,
+:class:`~inertiafit.report.result.Result` (posterior, what pins what, comparison, corner plots,
+identification curves, trials, speed effect, diagnostics, provenance): skipped trials, if any, come first,
 and "Inputs and provenance" lists every input file's SHA-256 and reader settings as stored in
 ``posterior.nc``.
 """
@@ -21,7 +21,13 @@ from typing import Any
 import pandas as pd
 
 from inertiafit.report.result import Result
-from inertiafit.report.tables import comparison_display, speed_effect_display, summary_display
+from inertiafit.report.tables import (
+    comparison_display,
+    correlation_display,
+    identification_display,
+    speed_effect_display,
+    summary_display,
+)
 
 __all__ = [
     "figure_png",
@@ -262,6 +268,24 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
                 ),
                 summary_display(summary),
                 "pre:" + post.report(hdi_prob),
+            ],
+        ),
+        (
+            "What pins what",
+            [
+                (
+                    "One rotation axis pins only m x (from M_g) and I per body; where the body "
+                    "sits on the curve of constant m x and I is decided by the prior unless a "
+                    "weighed mass, a balance point or a second mounting pins it. 'prior share' "
+                    "is d log(posterior SD) / d log(prior scale): 1 when the prior alone sets a "
+                    "quantity's width, 0 when the data do (the box shrunk about its centre; "
+                    "power-scaling, as arviz-stats psense does, leaves a box unchanged, so "
+                    "'psense prior' is blank for a box)."
+                ),
+                *post.what_pins_what().values(),
+                identification_display(post.identification()),
+                "Posterior correlations of m, x and rho:",
+                correlation_display(post.correlations()),
             ],
         ),
         (

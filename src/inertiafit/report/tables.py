@@ -16,7 +16,9 @@ from inertiafit.physics import UNITS
 
 __all__ = [
     "comparison_display",
+    "correlation_display",
     "fmt",
+    "identification_display",
     "speed_effect_display",
     "summary_display",
     "to_latex",
@@ -129,6 +131,50 @@ def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
             ],
             "R-hat": summary["r_hat"].round(3),
             "ESS bulk": summary["ess_bulk"].round(0).astype(int),
+        }
+    )
+
+
+def _two(value: float) -> str:
+    """Two decimals (no ``-0.00``); blank for NaN."""
+    if math.isnan(value):
+        return ""
+    return f"{0.0 if abs(value) < 0.005 else value:.2f}"
+
+
+def identification_display(identification: pd.DataFrame) -> pd.DataFrame:
+    """Who pins what: SD ratio, the prior's share, psense and the sources, per quantity.
+
+    From :meth:`~inertiafit.posterior.Posterior.identification`; blanks where a value does not
+    apply (psense of a box prior, the calibration share without a torque gain).
+    """
+    frame = identification
+
+    def col(name):
+        return frame[name] if name in frame else pd.Series([math.nan] * len(frame))
+
+    return pd.DataFrame(
+        {
+            "body": frame["body"],
+            "parameter": [f"{p} [{UNITS[p]}]" for p in frame["parameter"]],
+            "post/prior SD": [_two(v) for v in frame["sd_ratio"]],
+            "prior share": [_two(v) for v in col("prior_share")],
+            "calibration share": [_two(v) for v in col("calibration_share")],
+            "psense prior": [_two(v) for v in col("psense_prior")],
+            "psense likelihood": [_two(v) for v in col("psense_likelihood")],
+            "pinned by": col("pinned_by").fillna("").astype(str).to_numpy(),
+        }
+    )
+
+
+def correlation_display(correlations: pd.DataFrame) -> pd.DataFrame:
+    """Posterior correlations of m, x and rho per body, two decimals."""
+    return pd.DataFrame(
+        {
+            "body": correlations["body"],
+            "corr(m, x)": [f"{v:+.2f}" for v in correlations["corr_m_x"]],
+            "corr(m, rho)": [f"{v:+.2f}" for v in correlations["corr_m_rho"]],
+            "corr(x, rho)": [f"{v:+.2f}" for v in correlations["corr_x_rho"]],
         }
     )
 

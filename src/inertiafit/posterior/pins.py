@@ -1,0 +1,436 @@
+"""What pins what: the prior's share of each parameter, correlations, and the sources per body.
+
+One rotation axis identifies per body only ``a = m x`` (from ``M_g``) and ``b = I``; where the
+body sits on the curve of constant ``(a, b)`` is decided by the prior unless more information
+(a weighed mass, a balance point, a second mounting) pins it. This module measures that from
+the draws of a fitted tree.
+
+The prior's share
+-----------------
+``prior_share = d log(posterior SD) / d log(prior scale)``: how the posterior SD of a quantity
+follows when the body's prior is made narrower. It is 1 where the prior alone sets the width,
+0 where the data do, and for a Gaussian prior and likelihood it is exactly the prior's fraction
+of the posterior precision, ``SD_post^2 / SD_prior^2``.
+
+The derivative is a one-sided finite difference: every parameter's prior is shrunk about its
+centre by the factor ``1 - PRIOR_SCALE_STEP`` (a box about the middle of its bounds, bounds and
+all; a normal or truncated normal about its mean, with its SD; a lognormal in ``log`` about its
+median, with ``sd_log``) and the existing draws are reweighted by the ratio of the shrunk to the
+original density: ``exp(-z^2 (1/lambda^2 - 1) / 2)`` for a Gaussian shape, 0 or 1 for a box (a
+draw outside the shrunk bounds drops out). Shrinking keeps the weights bounded (at most 1), so
+no refit and no Pareto smoothing are needed. The share is ``log(SD_w / SD) / log(lambda)``.
+
+Why not only ``arviz_stats.psense``: power-scaling a uniform prior, ``p^alpha``, leaves it
+uniform on the same box, so ``psense`` reports no prior sensitivity for a box even where the
+box alone decides a parameter (and for a box the log prior is constant, on which
+``arviz_stats`` raises). Shrinking the box is the power-scaling of its width; for a normal prior
+it is psense's own mechanism (``p^alpha`` is the normal with SD ``alpha^-1/2``). The psense
+values are reported beside it where they mean something: the likelihood's always, the prior's
+for priors that are not a box.
+
+Sources
+-------
+``data`` (every condition's ``I`` and ``M_g``) always; ``weighed mass`` where the tree's
+``log_likelihood`` has ``mass`` for the body (dim ``mass_body``); ``balance point`` where it has
+``com_distance`` (dim ``com_body``); ``second mounting`` where ``constant_data`` has a non-zero
+``offset`` of a condition whose ``offset_body`` is the body. Which of several sources pins a
+parameter is read from ``psense`` of each source's log-likelihood terms (sensitivity >=
+:data:`PSENSE_THRESHOLD`); ``data`` is always named except for the parameter an extra source
+measures directly (``m`` of a weighed mass, ``x`` of a balance point), since the others follow
+from ``m x`` and ``I`` as well. When none stands out all are named together.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from inertiafit.physics import PARAMETERS
+
+__all__ = [
+    "DIRECT",
+    "PRIOR_DECIDES",
+    "PRIOR_SCALE_STEP",
+    "PSENSE_THRESHOLD",
+    "SHORT",
+    "body_sources",
+    "correlation_table",
+    "counted_sources",
+    "gain_scaling_log_weights",
+    "pinned_by",
+    "pins_line",
+    "prior_scaling_log_weights",
+    "prior_share",
+    "prior_specs",
+    "sensitivity",
+    "source_terms",
+]
+
+#: Relative step by which the prior's scale is shrunk for :func:`prior_share`.
+PRIOR_SCALE_STEP = 0.1
+#: Prior share at or above which the prior decides a quantity; at or below ``1 -`` it, the
+#: other sources do (the same 0.3/0.7 split as ``identified_by``).
+PRIOR_DECIDES = 0.7
+#: psense sensitivity above which a source counts (Kallioinen et al.'s 0.05).
+PSENSE_THRESHOLD = 0.05
+#: Short names of the quantities in sentences.
+SHORT = {
+    "mass": "m",
+    "com_distance": "x",
+    "radius_of_gyration": "rho",
+    "inertia": "I",
+    "gravity_moment": "M_g",
+}
+
+
+def prior_specs(tree: xr.DataTree) -> dict[str, dict[str, dict[str, Any]]]:
+    """Each body's prior per parameter, read from the tree, as a scaling rule.
+
+    Returns ``{body: {parameter: spec}}`` with ``spec`` keys ``log`` (bool: scaled in
+    ``log``), ``center``, ``scale`` (the SD, ``nan`` for a box), ``gaussian`` (bool),
+    ``lower``, ``upper`` (the support, in the scaled coordinate). Bodies without a stored
+    ``distribution`` (older trees) are boxes.
+    """
+    cd = tree["constant_data"]
+    try:
+        stored = json.loads(tree.attrs.get("priors") or "{}")
+    except (TypeError, ValueError):
+        stored = {}
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    for body in np.asarray(tree["posterior"]["body"]).tolist():
+        dist = (stored.get(str(body)) or {}).get("distribution") or {}
+        specs = {}
+        for p in PARAMETERS:
+            lo = float(cd["lower"].sel(body=body, parameter=p))
+            hi = float(cd["upper"].sel(body=body, parameter=p))
+            d = dist.get(p) or {}
+            kind = d.get("kind", "uniform")
+            if kind == "lognormal":
+                spec = {
+                    "log": True,
+                    "center": math.log(d["median"]),
+                    "scale": float(d["sd_log"]),
+                    "gaussian": True,
+                    "lower": math.log(lo),
+                    "upper": math.log(hi),
+                }
+            elif kind in ("normal", "truncated-normal"):
+                spec = {
+                    "log": False,
+                    "center": float(d["mean"]),
+                    "scale": float(d["sd"]),
+                    "gaussian": True,
+                    "lower": lo,
+                    "upper": hi,
+                }
+            else:
+                spec = {
+                    "log": False,
+                    "center": 0.5 * (lo + hi),
+                    "scale": math.nan,
+                    "gaussian": False,
+                    "lower": lo,
+                    "upper": hi,
+                }
+            specs[p] = spec
+        out[str(body)] = specs
+    return out
+
+
+def prior_scaling_log_weights(
+    values: Mapping[str, np.ndarray], specs: Mapping[str, Mapping[str, Any]], factor: float
+) -> np.ndarray:
+    """Log importance weights that turn the posterior into the one under a rescaled prior.
+
+    Every parameter's prior is scaled about its centre by ``factor`` (< 1 shrinks; see the
+    module docstring); ``values`` holds the draws of ``mass``, ``com_distance`` and
+    ``radius_of_gyration``. ``-inf`` where a draw leaves the scaled support.
+    """
+    shape = np.shape(values[PARAMETERS[0]])
+    out = np.zeros(shape)
+    for p in PARAMETERS:
+        s = specs[p]
+        v = np.asarray(values[p], float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.log(v) if s["log"] else v
+        c = s["center"]
+        lo, hi = c + factor * (s["lower"] - c), c + factor * (s["upper"] - c)
+        if s["gaussian"]:
+            z = (u - c) / s["scale"]
+            out = out - 0.5 * z * z * (1 / factor**2 - 1)
+        out = np.where((u >= lo) & (u <= hi), out, -np.inf)
+    return out
+
+
+def gain_scaling_log_weights(torque_gain: np.ndarray, sd: float, factor: float) -> np.ndarray:
+    """Log weights that shrink the torque gain's prior, ``log gain ~ N(0, sd^2)``, by ``factor``.
+
+    The gain's prior is scaled the way :func:`prior_scaling_log_weights` scales a body's.
+    """
+    z = np.log(np.asarray(torque_gain, float)) / sd
+    return -0.5 * z * z * (1 / factor**2 - 1)
+
+
+def _weighted_sd(x: np.ndarray, w: np.ndarray) -> float:
+    total = w.sum()
+    if not total > 0:
+        return math.nan
+    mean = (w * x).sum() / total
+    return math.sqrt(max((w * (x - mean) ** 2).sum() / total, 0.0))
+
+
+def prior_share(
+    draws: Mapping[str, np.ndarray],
+    specs: Mapping[str, Mapping[str, Any]] | None,
+    step: float = PRIOR_SCALE_STEP,
+    *,
+    torque_gain: np.ndarray | None = None,
+    torque_gain_sd: float = 0.0,
+) -> dict[str, float]:
+    """``d log(posterior SD) / d log(prior scale)`` of every quantity in ``draws``.
+
+    With ``specs`` the body's prior is scaled (``draws`` must then hold the three parameters
+    and may hold more, e.g. ``inertia``, ``gravity_moment``; arrays of one shape). With
+    ``specs=None`` and ``torque_gain`` (its draws) the torque gain's prior of SD
+    ``torque_gain_sd`` is scaled instead: the calibration prior's share. ``nan`` for a
+    quantity without spread.
+    """
+    factor = 1.0 - step
+    if specs is not None:
+        log_w = prior_scaling_log_weights(draws, specs, factor).ravel()
+    elif torque_gain is not None and torque_gain_sd > 0:
+        log_w = gain_scaling_log_weights(torque_gain, torque_gain_sd, factor).ravel()
+    else:
+        return dict.fromkeys(draws, math.nan)
+    top = log_w.max()
+    if not np.isfinite(top):
+        return dict.fromkeys(draws, math.nan)
+    w = np.exp(log_w - top)
+    out = {}
+    for q, values in draws.items():
+        x = np.asarray(values, float).ravel()
+        sd = float(x.std())
+        sd_w = _weighted_sd(x, w)
+        out[q] = math.log(sd_w / sd) / math.log(factor) if sd > 0 and sd_w > 0 else math.nan
+    return out
+
+
+def sensitivity(posterior: xr.Dataset, log_term: xr.DataArray) -> dict[str, float]:
+    """``arviz_stats.psense`` of each variable of ``posterior`` to power-scaling ``log_term``.
+
+    ``posterior`` holds one body's quantities ``(chain, draw)``, ``log_term`` a log density
+    ``(chain, draw)`` (a likelihood's or a prior's). ``nan`` where psense cannot run (a
+    constant term: power-scaling it changes nothing).
+    """
+    from arviz_stats import psense
+
+    tree = xr.DataTree.from_dict(
+        {"posterior": posterior, "log_likelihood": xr.Dataset({"term": log_term})}
+    )
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            result = psense(tree, group="likelihood")
+    except ValueError:
+        return {str(v): math.nan for v in posterior.data_vars}
+    return {str(v): float(result[v]) for v in result.data_vars}
+
+
+def body_sources(tree: xr.DataTree, body: str) -> list[str]:
+    """The information sources of ``body``: ``data`` and any extra ones (module docstring)."""
+    ll = tree["log_likelihood"].to_dataset() if "log_likelihood" in tree.children else None
+    out = ["data"]
+    if ll is not None and "mass" in ll and body in _labels(ll["mass"], "mass_body"):
+        out.append("weighed mass")
+    if ll is not None and "com_distance" in ll and body in _labels(ll["com_distance"], "com_body"):
+        out.append("balance point")
+    if _mountings(tree, body):
+        out.append("second mounting")
+    return out
+
+
+def _labels(arr: xr.DataArray, dim: str) -> list[str]:
+    return [str(v) for v in np.asarray(arr[dim]).tolist()] if dim in arr.dims else []
+
+
+def _mountings(tree: xr.DataTree, body: str) -> list[str]:
+    """Labels of the conditions that mount ``body`` at a non-zero offset."""
+    cd = tree["constant_data"]
+    if "offset" not in cd or "offset_body" not in cd:
+        return []
+    offsets = np.asarray(cd["offset"].values, float)
+    owners = [str(v) for v in np.asarray(cd["offset_body"].values).tolist()]
+    labels = [str(v) for v in np.asarray(cd["condition"].values).tolist()]
+    return [
+        c
+        for c, d, o in zip(labels, offsets, owners, strict=True)
+        if o == body and math.isfinite(d) and d != 0
+    ]
+
+
+def source_terms(tree: xr.DataTree, body: str) -> dict[str, xr.DataArray]:
+    """Each source's summed log-likelihood ``(chain, draw)`` for ``body`` (its sources only)."""
+    ll = tree["log_likelihood"].to_dataset()
+    mounted = set(_mountings(tree, body))
+    zero = xr.zeros_like(tree["posterior"].to_dataset()["mass"].isel(body=0, drop=True))
+    data, mounting = zero, zero
+    for name in ("inertia", "gravity_moment"):
+        if name not in ll:
+            continue
+        arr = ll[name]
+        dim = f"{name}_condition"
+        labels = _labels(arr, dim)
+        is_mounted = xr.DataArray([c in mounted for c in labels], dims=dim)
+        data = data + arr.where(~is_mounted, 0.0).sum(dim)
+        mounting = mounting + arr.where(is_mounted, 0.0).sum(dim)
+    terms = {"data": data}
+    sources = body_sources(tree, body)
+    if "weighed mass" in sources:
+        terms["weighed mass"] = ll["mass"].sel(mass_body=body, drop=True)
+    if "balance point" in sources:
+        terms["balance point"] = ll["com_distance"].sel(com_body=body, drop=True)
+    if "second mounting" in sources:
+        terms["second mounting"] = mounting
+    return terms
+
+
+#: The parameter an extra source measures directly.
+DIRECT = {"weighed mass": "mass", "balance point": "com_distance"}
+
+
+def counted_sources(
+    sources: Sequence[str], parameter: str, sensitivities: Mapping[str, float]
+) -> list[str]:
+    """The sources to name for ``parameter``: those whose psense reaches the threshold.
+
+    ``data`` stays unless an extra source measures the parameter directly (a weighed mass
+    ``m``, a balance point ``x``): every other parameter follows from ``m x`` and ``I`` too.
+    A source without a sensitivity counts; when none counts, all are named.
+    """
+    direct = any(DIRECT.get(s) == parameter for s in sources)
+    counted = [
+        s
+        for s in sources
+        if sensitivities.get(s, 1.0) >= PSENSE_THRESHOLD or (s == "data" and not direct)
+    ]
+    return counted or list(sources)
+
+
+def pinned_by(
+    share: float,
+    sources: Sequence[str],
+    fallback: str = "data",
+    calibration_share: float = math.nan,
+) -> str:
+    """Who pins a quantity, from the prior's share (and the calibration prior's).
+
+    ``prior`` (share >= :data:`PRIOR_DECIDES`), ``calibration prior`` (the torque gain's prior,
+    likewise), or the sources (``data + weighed mass``) with ``+ prior`` / ``+ calibration
+    prior`` for a share between ``1 - PRIOR_DECIDES`` and ``PRIOR_DECIDES``. ``sources`` are the
+    non-prior sources that count for it; ``fallback`` (the SD-ratio verdict) is used when the
+    share is ``nan``.
+    """
+    if not math.isfinite(share):
+        return fallback
+    if share >= PRIOR_DECIDES:
+        return "prior"
+    if math.isfinite(calibration_share) and calibration_share >= PRIOR_DECIDES:
+        return "calibration prior"
+    named = list(sources) or ["data"]
+    if share > 1 - PRIOR_DECIDES:
+        named.append("prior")
+    if math.isfinite(calibration_share) and calibration_share > 1 - PRIOR_DECIDES:
+        named.append("calibration prior")
+    return " + ".join(named)
+
+
+def _join(names: Sequence[str]) -> str:
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def _share_range(shares: Sequence[float]) -> str:
+    lo, hi = min(shares), max(shares)
+    return f"{lo:.2f}" if f"{lo:.2f}" == f"{hi:.2f}" else f"{lo:.2f}-{hi:.2f}"
+
+
+_PRIORS = {
+    "prior": ("the prior", "prior_share"),
+    "calibration prior": (
+        "the torque-gain (calibration) prior",
+        "calibration_share",
+    ),
+}
+
+
+def pins_line(body: str, rows: Sequence[Mapping[str, Any]], sources: Sequence[str]) -> str:
+    """One sentence per body: which information pins each of its quantities.
+
+    ``rows`` are the body's identification rows (``parameter``, ``pinned_by``, ``prior_share``,
+    ``sd_ratio``, optionally ``calibration_share``) in table order; ``sources`` what the body
+    has (:func:`body_sources`).
+    """
+    groups: dict[str, list[Mapping[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault(str(r["pinned_by"]), []).append(r)
+    parts = []
+    left: list[str] = []  # parameters the body's prior still (co-)decides
+    for who, members in groups.items():
+        names = _join([SHORT[str(r["parameter"])] for r in members])
+        parts_of = who.split(" + ")
+        priors = [c for c in parts_of if c in _PRIORS]
+        others = [c for c in parts_of if c not in _PRIORS]
+        shares = []
+        for c in priors:
+            column = _PRIORS[c][1]
+            values = [float(r.get(column, math.nan)) for r in members]
+            values = [v for v in values if math.isfinite(v)]
+            if values:
+                label = "prior share" if c == "prior" else "calibration share"
+                shares.append(f"{label} {_share_range(values)}")
+        share = f" ({'; '.join(shares)})" if shares else ""
+        if not priors:
+            parts.append(f"{names} pinned by the {who}")
+        elif not others:
+            narrowed = priors == ["prior"] and all(
+                float(r["sd_ratio"]) < PRIOR_DECIDES for r in members
+            )
+            where = " within the range the data allow" if narrowed else ""
+            parts.append(f"{names} decided by {_PRIORS[priors[0]][0]}{where}{share}")
+        else:
+            together = _join(["the " + " + ".join(others), *(_PRIORS[c][0] for c in priors)])
+            parts.append(f"{names} by {together} together{share}")
+        if "prior" in priors:
+            left += [str(r["parameter"]) for r in members if r["parameter"] in PARAMETERS]
+    line = f"{body}: " + "; ".join(parts)
+    if left and list(sources) == ["data"]:
+        if "mass" in left or "com_distance" in left:
+            line += (
+                " - weigh it, find its balance point or mount it at a second distance from "
+                "the axis to pin them"
+            )
+        else:  # m and x pinned: rho^2 = I/m - x^2 is what remains
+            line += (
+                " - rho^2 = I/m - x^2 is a small difference of pinned quantities here; only "
+                "more precise I, m and x would pin it"
+            )
+    return line
+
+
+def correlation_table(tree: xr.DataTree) -> list[dict[str, Any]]:
+    """Posterior correlations of ``m``, ``x`` and ``rho`` per body (rows of a table)."""
+    post = tree["posterior"]
+    rows = []
+    for body in np.asarray(post["body"]).tolist():
+        cols = [np.asarray(post[p].sel(body=body).values, float).ravel() for p in PARAMETERS]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = np.corrcoef(np.stack(cols))
+        rows.append(
+            {"body": str(body), "corr_m_x": c[0, 1], "corr_m_rho": c[0, 2], "corr_x_rho": c[1, 2]}
+        )
+    return rows
