@@ -301,13 +301,20 @@ def test_plan_from_a_pilot_reads_its_noise_and_predicts_its_own_widths(tmp_path)
     manifest = simulate_study(
         tmp_path / "study",
         bodies=TRUTH,
-        conditions=list(TWO and [("attachment",), ("attachment", "weight")]),
+        conditions=[("attachment",), ("attachment", "weight")],
+        speeds=(240.0, 300.0),
         trials_per_speed=4,
         seed=3,
         noise=Noise.paper(),
     )
-    run_study(manifest, out=tmp_path / "pilot", seed=3, echo=lambda _s: None,
-              progress=lambda _s: None)  # fmt: skip
+    run_study(
+        manifest,
+        out=tmp_path / "pilot",
+        seed=3,
+        formats=("png",),
+        echo=lambda _s: None,
+        progress=lambda _s: None,
+    )
     info = pilot_inputs(tmp_path / "pilot")
     trials = pd.read_csv(tmp_path / "pilot" / "trials.csv")
     fast = trials[(trials["kind"] == "fast") & (trials["condition"] == "attachment")]
