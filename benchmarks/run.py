@@ -9,6 +9,7 @@
 7. sbc          simulation-based calibration: rank histograms, coverage, negative controls
 8. gravity_se   the quasi-static fit's SE against its empirical error (drift, friction)
 9. coverage     the whole pipeline on simulated trial files: 95 % HDI coverage at 4 noise levels
+10. plan        `inertiafit plan`'s predicted widths vs full simulated studies (within 20 %)
 
 Run:  .venv/bin/python benchmarks/run.py [--quick] [--json FILE] [--only NAME ...]
       [--pymc-python PATH]   (another venv's python with PyMC and inertiafit installed)
@@ -33,6 +34,7 @@ import coverage
 import end_to_end
 import gravity_se
 import peer_pymc
+import plan
 import processing
 import sampler
 import sbc
@@ -49,6 +51,7 @@ BENCHMARKS = {
     "sbc": sbc.run,
     "gravity_se": gravity_se.run,
     "coverage": coverage.run,
+    "plan": plan.run,
 }
 
 

@@ -9,6 +9,7 @@ from .inference.reference import reference_posterior
 from .inference.sampler import SamplerSettings, sample
 from .io import load_study, read_trial
 from .pipeline.batch import run_many
+from .pipeline.plan import Design, Mounting, NoiseLevels, plan
 from .pipeline.study import analyse_study, run_study
 from .posterior import Posterior, open_posterior
 
@@ -17,9 +18,12 @@ __version__: str
 __all__ = [
     "Condition",
     "ConvergenceWarning",
+    "Design",
     "InertiafitWarning",
     "InputError",
     "Model",
+    "Mounting",
+    "NoiseLevels",
     "Observation",
     "Posterior",
     "Prior",
@@ -33,6 +37,7 @@ __all__ = [
     "load_study",
     "open_posterior",
     "paper_baseline",
+    "plan",
     "read_trial",
     "reference_posterior",
     "run_many",

@@ -1,4 +1,4 @@
-"""Command line: ``inertiafit fit | run | run-many | demo | report | priors``.
+"""Command line: ``inertiafit fit | run | run-many | demo | report | plan | priors``.
 
 The command line only parses arguments and calls the library. Bad input ends with one line on
 stderr (``inertiafit: error: ...``) and exit status 2, never a traceback.
@@ -7,6 +7,7 @@ stderr (``inertiafit: error: ...``) and exit status 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from pathlib import Path
@@ -276,6 +277,70 @@ def build_parser() -> argparse.ArgumentParser:
         help="probability of the highest-density intervals (default 0.95)",
     )
 
+    plan = sub.add_parser(
+        "plan",
+        help="predicted posterior widths of candidate designs, before a session",
+        description="Predict the posterior SD and HDI width of every body's m, x, rho, I and "
+        "M_g for candidate designs (trials per speed, speeds, weighing, a second mounting, "
+        "priors), from a design file (TOML; see the tutorial 'Planning a measurement "
+        "session') or from a pilot study's --out folder (posterior.nc and trials.csv). "
+        "With targets, finds the design reaching them with the fewest trials. Writes "
+        "plan.csv, plan-search.csv and plan.pdf/.png into --out.",
+    )
+    plan.add_argument(
+        "design", type=Path, nargs="?", metavar="DESIGN", help="a design file (TOML)"
+    )
+    plan.add_argument(
+        "--pilot", type=Path, metavar="DIR", help="a pilot study's output folder instead"
+    )
+    plan.add_argument(
+        "--trials-per-speed",
+        type=_count,
+        nargs="+",
+        default=[],
+        metavar="N",
+        help="add variants of every design with these fast trials per speed",
+    )
+    plan.add_argument(
+        "--weigh",
+        nargs="+",
+        default=[],
+        metavar="BODY=SD",
+        help="add variants with BODY weighed on a scale of this SD (kg)",
+    )
+    plan.add_argument(
+        "--offset",
+        nargs="+",
+        default=[],
+        metavar="BODY=D",
+        help="add variants with BODY also measured D m further out (a second mounting)",
+    )
+    plan.add_argument(
+        "--target",
+        nargs="+",
+        default=[],
+        metavar="BODY.PARAMETER=WIDTH",
+        help="requested HDI width (SI units), e.g. forearm.mass=0.2",
+    )
+    plan.add_argument(
+        "--out",
+        type=Path,
+        default=Path("inertiafit-plan"),
+        help="output folder, replaced whole (default: inertiafit-plan)",
+    )
+    plan.add_argument("--seed", type=_count, default=0, help="seed (default 0)")
+    plan.add_argument(
+        "--hdi-prob",
+        type=_number,
+        default=None,
+        help="probability of the HDIs (default: the design file's, else 0.95)",
+    )
+    plan.add_argument(
+        "--formats",
+        default="pdf,png",
+        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+    )
+
     sub.add_parser("priors", help="list the shipped priors")
     return parser
 
@@ -364,6 +429,46 @@ def _demo(args) -> int:
     return 0
 
 
+def _pairs(items: list[str], option: str, what: str) -> dict[str, float]:
+    """``KEY=NUMBER`` items as a dict (the option's message names it)."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = float("nan")
+        if not sep or not key or not math.isfinite(number):
+            raise InputError(f"{option}: expected {what}, got {item!r}")
+        out[key] = number
+    return out
+
+
+def _plan(args) -> int:
+    from inertiafit.pipeline.plan import run_plan
+    from inertiafit.plotting.style import check_formats
+
+    if (args.design is None) == (args.pilot is None):
+        raise InputError("plan: give a design file or --pilot DIR (one of them)")
+    offsets: dict[str, list[float]] = {}
+    for item in args.offset:
+        for body, d in _pairs([item], "--offset", "BODY=D (m)").items():
+            offsets.setdefault(body, []).append(d)
+    run_plan(
+        args.design,
+        pilot=args.pilot,
+        out=args.out,
+        trials_per_speed=args.trials_per_speed,
+        weigh=_pairs(args.weigh, "--weigh", "BODY=SD (kg)"),
+        offsets=offsets,
+        targets=_pairs(args.target, "--target", "BODY.PARAMETER=WIDTH"),
+        hdi_prob=args.hdi_prob,
+        seed=args.seed,
+        formats=check_formats(args.formats.split(",")),
+    )
+    return 0
+
+
 def _priors(_args) -> int:
     from inertiafit.inference.priors import available_priors, load_prior
 
@@ -410,10 +515,11 @@ def main(argv: list[str] | None = None) -> int:
         "run-many": _run_many,
         "demo": _demo,
         "report": _report,
+        "plan": _plan,
         "priors": _priors,
     }
     try:
-        if hasattr(args, "hdi_prob"):
+        if getattr(args, "hdi_prob", None) is not None:
             check_probability(args.hdi_prob, "hdi_prob")
         return handlers[args.command](args)
     except InputError as exc:

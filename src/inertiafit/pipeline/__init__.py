@@ -4,7 +4,9 @@
 - :mod:`~inertiafit.pipeline.fit`: :func:`run_fit` (``fit``: one body from numbers);
 - :mod:`~inertiafit.pipeline.redraw`: :func:`redraw` (``report``: from saved outputs);
 - :mod:`~inertiafit.pipeline.demo`: :func:`run_demo` (``demo``);
-- :mod:`~inertiafit.pipeline.batch`: :func:`run_many` (``run-many``: many studies, on Dask).
+- :mod:`~inertiafit.pipeline.batch`: :func:`run_many` (``run-many``: many studies, on Dask);
+- :mod:`~inertiafit.pipeline.plan`: :func:`plan` and :func:`run_plan` (``plan``: predicted
+  widths of candidate designs).
 """
 
 from __future__ import annotations
