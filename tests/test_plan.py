@@ -220,6 +220,12 @@ def test_missing_inputs_and_pilot_files(tmp_path):
         pilot_inputs(tmp_path)
     with pytest.raises(InputError, match="one of them"):
         run_plan(out=tmp_path / "o")
+    gain = Design("gain", PAPER, torque_gain_sd=0.01)
+    with pytest.raises(InputError, match="torque_gain_sd: the simulator writes no calibration"):
+        simulated_widths(BODIES, gain, folder=tmp_path)
+    with pytest.raises(InputError, match="replicates: expected >= 2"):
+        simulated_widths(BODIES, Design("one", PAPER), replicates=1, folder=tmp_path)
+    assert not any(tmp_path.iterdir())  # refused before anything is simulated
 
 
 SMALL = """
