@@ -15,7 +15,8 @@ range of coverages.
 
 Extra information (``inertiafit.inference.sbc.extra_design``): an attachment alone and with one
 segment (Gaussian evidence) with a second mounting, weighed masses, a balance point, a known
-added mass with a torque gain, and all of them at once; 100 studies each.
+added mass with a torque gain, all of them at once, and the segment under a de Leva (1996) prior
+(truths drawn from it); 100 studies each.
 
 Negative controls: the same studies fitted with every observation's scale multiplied by 0.5
 or 2 (the data were generated with the right one), and the all-extra-information design with

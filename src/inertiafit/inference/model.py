@@ -704,12 +704,19 @@ class Model:
         terms = self._curve_terms(z, k, a)
         m_lo = np.zeros_like(a)
         m_hi = np.full_like(a, np.inf)
-        core = None
+        core = narrowest = None
         for _, (lo, hi), (clo, chi) in terms:
             m_lo, m_hi = np.maximum(m_lo, lo), np.minimum(m_hi, hi)
             if core is None or np.all(chi - clo < core[1] - core[0]):
-                core = (clo, chi)
+                core, narrowest = (clo, chi), (lo, hi)
         assert core is not None
+        assert narrowest is not None
+        # Where the terms' windows do not meet (a state far from the data, where the terms
+        # disagree), take the narrowest term's window: the density there is tiny but finite,
+        # so a search from such a state can climb toward the posterior.
+        apart = m_lo >= m_hi
+        m_lo = np.where(apart, narrowest[0], m_lo)
+        m_hi = np.where(apart, narrowest[1], m_hi)
 
         # psi of the mass m on the curve through (a, b): sin^2 psi = a^2 / (b m); psi falls as
         # m grows. Rows: window high, window low, core high, core low.

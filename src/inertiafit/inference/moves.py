@@ -47,20 +47,24 @@ def _least_squares_start(model: Model) -> np.ndarray:
 
     The evidence is linear in ``(a, b)`` (sums over mounted bodies), so a ridge least-squares
     solve gives a start near the mode even for many bodies; where the evidence cannot tell bodies
-    apart, the nominal values (weight 1 / (0.5 nominal)) decide.
+    apart, the nominal values (weight 1 / (0.5 nominal)) decide. Known added masses are taken
+    off the evidence; a condition with a moved body is left out (its evidence involves the
+    mass, not only ``(a, b)``).
     """
     k = len(model.bodies)
     rows, rhs = [], []
     for ci, cond in enumerate(model.conditions):
+        if cond.offset_body:
+            continue
         w = model.membership[ci]
         if cond.gravity_moment is not None:
             obs = cond.gravity_moment
             rows.append(np.concatenate([model.gravity * w, np.zeros(k)]) / obs.scale)
-            rhs.append(obs.center / obs.scale)
+            rhs.append((obs.center - model.gravity * cond.added_first_moment) / obs.scale)
         if cond.inertia is not None:
             obs = cond.inertia
             rows.append(np.concatenate([np.zeros(k), w]) / obs.scale)
-            rhs.append(obs.center / obs.scale)
+            rhs.append((obs.center - cond.added_inertia) / obs.scale)
     for j, body in enumerate(model.bodies):
         nom = model.priors[body].nominal
         a0 = nom["mass"] * nom["com_distance"]
@@ -103,8 +107,8 @@ def laplace_fit(model: Model, rng: np.random.Generator) -> tuple[np.ndarray, np.
     """The Laplace approximation of ``model``'s posterior in its sampled coordinates.
 
     Starts from a ridge least-squares fit of the evidence and 4000 draws from the prior boxes,
-    polishes the three best (Nelder-Mead up to 4 coordinates, else L-BFGS-B) and takes the
-    central-difference Hessian at the best mode.
+    polishes the three best (the best one with extra information; Nelder-Mead up to 4
+    coordinates, else L-BFGS-B) and takes the central-difference Hessian at the best mode.
 
     Parameters
     ----------
@@ -138,7 +142,9 @@ def laplace_fit(model: Model, rng: np.random.Generator) -> tuple[np.ndarray, np.
     lp = model.log_prob(z0)
     if not np.isfinite(lp).any():
         raise InputError("model: no draw from the prior boxes has a finite posterior density")
-    best = z0[np.argsort(lp)[-3:]]
+    # Polish the three best starts; with extra information (whose density costs an integral
+    # over the angle per call) the best one, which the least-squares start usually is.
+    best = z0[np.argsort(lp)[-1:]] if model.has_extra else z0[np.argsort(lp)[-3:]]
 
     def neg(z):
         v = model.log_prob(z)

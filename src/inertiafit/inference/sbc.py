@@ -71,7 +71,7 @@ from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.inference.fit import fit
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
-from inertiafit.inference.priors import Prior
+from inertiafit.inference.priors import Prior, anthropometric_prior
 from inertiafit.inference.sampler import SamplerSettings
 from inertiafit.physics import GRAVITY, REPORTED
 
@@ -294,7 +294,14 @@ def attachment_design(k: int, evidence: str, *, seed: int = 0, **kwargs) -> Desi
 
 
 #: Kinds of extra information :func:`extra_design` simulates.
-EXTRA_KINDS = ("second mounting", "weighed mass", "balance point", "added mass", "all")
+EXTRA_KINDS = (
+    "second mounting",
+    "weighed mass",
+    "balance point",
+    "added mass",
+    "all",
+    "de Leva prior",
+)
 
 
 def extra_design(kind: str, *, seed: int = 0, **kwargs) -> Design:
@@ -305,7 +312,9 @@ def extra_design(kind: str, *, seed: int = 0, **kwargs) -> Design:
     attachment's centre of mass to 4 mm; ``"added mass"``: a known 0.5 kg point 0.3 m out
     mounted with the segment (with a 2 % torque gain, which a known mass can calibrate);
     ``"all"``: the second mounting, the segment weighed, the attachment's balance point and
-    the added mass. ``kwargs`` go to :class:`Design` (default evidence ``mean_se``).
+    the added mass; ``"de Leva prior"``: no extra measurement, the segment's prior the de Leva
+    (1996) male forearm + hand of a 72.5 kg man with a 0.27 m forearm (truths drawn from it).
+    ``kwargs`` go to :class:`Design` (default evidence ``mean_se``).
     """
     if kind not in EXTRA_KINDS:
         raise InputError(f"kind: expected one of {', '.join(EXTRA_KINDS)}, got {kind!r}")
@@ -324,6 +333,9 @@ def extra_design(kind: str, *, seed: int = 0, **kwargs) -> Design:
         )
     if kind == "balance point":
         return dataclasses.replace(base, measured={"attachment": {"com_distance": 0.004}})
+    if kind == "de Leva prior":
+        forearm = anthropometric_prior("de-leva-male", "forearm+hand", 72.5, 0.27, name="seg01")
+        return dataclasses.replace(base, priors={**base.priors, "seg01": forearm})
     if kind == "added mass":
         return dataclasses.replace(
             base,

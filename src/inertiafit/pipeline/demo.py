@@ -1,6 +1,8 @@
 """``inertiafit demo``: the paper's experiment simulated and run end to end.
 
-The paper's own published numbers are then fitted beside it (``paper-numbers/``).
+The paper's own published numbers are then fitted beside it (``paper-numbers/``), and the
+intervals of ``m``, ``x`` and ``rho`` shown shrinking with a weighed mass and a de Leva prior
+(``information/``, :mod:`inertiafit.pipeline.information`).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from pathlib import Path
 from inertiafit import paper
 from inertiafit.io.outputs import output_folder
 from inertiafit.pipeline.fit import run_fit
+from inertiafit.pipeline.information import run_information_demo
 from inertiafit.pipeline.study import analyse_study
 from inertiafit.report.outputs import write_outputs
 from inertiafit.report.text import study_comparison_text
@@ -117,9 +120,17 @@ def run_demo(
             echo=echo,
             shown_as=out / "paper-numbers",
         )
+        echo("=" * 100)
+        echo("Beyond the paper: a weighed mass and an anthropometric prior")
+        echo("=" * 100)
+        run_information_demo(
+            folder / "information", manifest, seed=seed, hdi_prob=hdi_prob, echo=echo, say=say
+        )
+        echo("")
     echo(
         f"wrote {out}/: report.html, summary, comparison, speed_effect and trials tables "
-        "(.csv/.md/.tex), posterior.nc, figures; study/ (simulated trials); paper-numbers/"
+        "(.csv/.md/.tex), posterior.nc, figures; study/ (simulated trials); paper-numbers/; "
+        "information/ (information.csv, forearm-study/)"
     )
 
 
