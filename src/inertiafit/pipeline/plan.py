@@ -1032,22 +1032,27 @@ def simulated_widths(
     ``replicates`` studies are simulated (:func:`~inertiafit.simulate.simulate_study`, trial
     files at 1 kHz with ``noise``, default :meth:`~inertiafit.simulate.Noise.paper`) with the
     nominal values as the truth, and each runs through
-    :func:`~inertiafit.pipeline.study.analyse_study`. Returns a row per body and parameter:
-    the mean over the replicates of the posterior ``sd`` and HDI width (``hdi_width``), and
-    the SD of the widths over replicates (``hdi_width_sd``). Written under ``folder``.
-    Designs with one quasi-static trial per condition only (the simulator writes one).
+    :func:`~inertiafit.pipeline.study.analyse_study`. A second mounting is a condition with
+    its body moved (``offset``); a weighed body or a balance point is written into the
+    manifest with the design's SD, its reading drawn from the truth with that SD (a fresh
+    draw per study, as a real scale's would be), where :func:`plan` centres it on the truth.
+    Returns a row per body and parameter: the mean over the replicates of the posterior
+    ``sd`` and HDI width (``hdi_width``), and the SDs of both over replicates (``sd_sd``,
+    ``hdi_width_sd``: the Monte Carlo SE of the means is these over ``sqrt(replicates)``).
+    Written under ``folder``. Designs with one quasi-static trial per condition and no
+    torque-gain SD only (the simulator writes one quasi-static trial and no calibration).
     """
     from inertiafit.pipeline.study import analyse_study
     from inertiafit.simulate import Noise, simulate_study
 
     if design.quasi_static_trials != 1:
         raise InputError("simulated_widths: the simulator writes one quasi-static trial")
-    if design.weighed or design.balanced or any(m.offset_body for m in design.mountings):
-        raise InputError(
-            "simulated_widths: weighed, balanced and moved bodies need the manifest's "
-            "extra information (not in this version)"
-        )
+    if design.torque_gain_sd:
+        raise InputError("simulated_widths: torque_gain_sd: the simulator writes no calibration")
+    if not (_whole(replicates) and replicates >= 2):
+        raise InputError(f"simulated_widths: replicates: expected >= 2, got {replicates!r}")
     nominal = _nominal(bodies)
+    _check_design(design, nominal)
     used = [b for b in nominal if any(b in m.bodies for m in design.mountings)]
     specs: dict[str, Any] = {}
     for b in used:
@@ -1056,6 +1061,15 @@ def simulated_widths(
             if isinstance(spec, Prior):
                 raise InputError(f"simulated_widths: prior of '{b}': give a name or a table")
             specs[b] = spec
+    conditions: list[Any] = [
+        {"bodies": m.bodies, "offset": {m.offset_body: m.offset}} if m.offset_body else m.bodies
+        for m in design.mountings
+    ]
+    measured: dict[str, dict[str, float]] = {}
+    for b, sd in design.weighed.items():
+        measured.setdefault(b, {})["mass"] = float(sd)
+    for b, sd in design.balanced.items():
+        measured.setdefault(b, {})["com_distance"] = float(sd)
     rows = []
     for r in range(replicates):
         manifest = simulate_study(
@@ -1068,12 +1082,13 @@ def simulated_widths(
                 )
                 for b in used
             },
-            conditions=[m.bodies for m in design.mountings],
+            conditions=conditions,
             speeds=design.speeds,
             trials_per_speed=design.trials_per_speed,
             seed=seed + r,
             noise=Noise.paper() if noise is None else noise,
             priors=specs,
+            measured={b: m for b, m in measured.items() if b in used} or None,
         )
         result = analyse_study(manifest, seed=seed + r, hdi_prob=hdi_prob)
         s = result.posterior.summary(hdi_prob)
@@ -1082,6 +1097,9 @@ def simulated_widths(
         rows.append(s[["replicate", "body", "parameter", "sd", "hdi_width"]])
     all_rows = pd.concat(rows)
     out = all_rows.groupby(["body", "parameter"], sort=False).agg(
-        sd=("sd", "mean"), hdi_width=("hdi_width", "mean"), hdi_width_sd=("hdi_width", "std")
+        sd=("sd", "mean"),
+        hdi_width=("hdi_width", "mean"),
+        sd_sd=("sd", "std"),
+        hdi_width_sd=("hdi_width", "std"),
     )
     return out.reset_index()
