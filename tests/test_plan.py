@@ -12,7 +12,7 @@ from inertiafit.errors import InputError
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.predict import hdi_width, posterior_widths
-from inertiafit.inference.priors import Prior
+from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.reference import reference_posterior
 from inertiafit.pipeline.plan import (
     Design,
@@ -139,8 +139,11 @@ def test_pilot_noise_is_used_for_its_conditions_and_interpolated_in_speed():
 def test_example_design_file_loads():
     kwargs = load_plan_file(EXAMPLE / "plan-session.toml")
     assert [d.name for d in kwargs["designs"]][:2] == ["box alone", "box, 3 per speed"]
-    moved = kwargs["designs"][3].mountings[-1]
+    names = [d.name for d in kwargs["designs"]]
+    moved = kwargs["designs"][names.index("second mounting +5 cm")].mountings[-1]
     assert (moved.offset_body, moved.offset) == ("forearm", 0.05)
+    de_leva = load_prior(kwargs["designs"][names.index("de Leva prior")].priors["forearm"])
+    assert de_leva.nominal["mass"] == pytest.approx((0.0162 + 0.0061) * 72.5, rel=1e-9)
     assert kwargs["priors"]["attachment"].name == "attachment"
     assert kwargs["targets"]["forearm.mass"] == 0.3
 
