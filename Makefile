@@ -22,10 +22,10 @@ demo: $(STAMP)
 	$(VENV)/bin/inertiafit demo --out $(DEMO_OUT)
 
 test: $(STAMP)
-	$(PY) -m pytest -n 2 $(PYTEST_ARGS)
+	$(PY) -m pytest -n 2 --dist worksteal $(PYTEST_ARGS)
 
 test-fast: $(STAMP)
-	$(PY) -m pytest -n 2 -m "not slow" $(PYTEST_ARGS)
+	$(PY) -m pytest -n 2 --dist worksteal -m "not slow" $(PYTEST_ARGS)
 
 # The readers and the manifest parser under many random inputs (hypothesis, ~3 min): every
 # input gives a valid trial or one InputError line, never another exception.

@@ -262,9 +262,9 @@ def test_coupled_designs_need_gaussian_evidence():
 @pytest.mark.parametrize(
     ("k", "evidence", "n", "extra"),
     [
-        (0, "mean_se", 30, {"torque_gain_sd": 0.02, "shared": 1.0, "coupling": 0.01}),
-        (0, "values", 30, {"torque_gain_sd": 0.02}),
-        (3, "mean_se", 20, {"torque_gain_sd": 0.01, "shared": 1.0, "coupling": 0.004}),
+        (0, "mean_se", 20, {"torque_gain_sd": 0.02, "shared": 1.0, "coupling": 0.01}),
+        (0, "values", 20, {"torque_gain_sd": 0.02}),
+        (3, "mean_se", 14, {"torque_gain_sd": 0.01, "shared": 1.0, "coupling": 0.004}),
     ],
 )
 def test_sbc_with_systematic_errors(k, evidence, n, extra):
