@@ -44,6 +44,7 @@ from inertiafit.inference.sbc import (
     extra_design,
     run_sbc,
 )
+from inertiafit.posterior.pins import SHORT
 
 ALPHA = 0.001
 #: Studies per design with extra information (``sbc.extra_design``), full run.
@@ -57,14 +58,6 @@ NEGATIVE = (
     (3, "values", 0.5, 100),
     (3, "values", 2.0, 100),
 )
-
-SHORT = {
-    "mass": "m",
-    "com_distance": "x",
-    "radius_of_gyration": "rho",
-    "inertia": "I",
-    "gravity_moment": "M_g",
-}
 
 
 def _count(n: int, quick: bool, fraction: float) -> int:

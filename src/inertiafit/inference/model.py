@@ -524,6 +524,22 @@ class Model:
             total_b = total_b + gain * self._added[:, 1]
         return total_a, total_b
 
+    def _moved_lines(self, z, ci: int, total_a, total_b):
+        """Condition ``ci``'s observed-scale totals as lines in its moved body's mass ``m``.
+
+        ``A(m) = ta + sa m`` and ``B(m) = tb + sb m``: the moved body adds ``gain m d`` to
+        ``a`` and ``2 a d + gain m d^2`` to ``I`` (``a`` observed-scale, ``m`` true). Returns
+        ``(ta, sa, tb, sb)``, each ``(rows,)``; ``total_a``, ``total_b`` from :meth:`_totals`.
+        """
+        cond = self.conditions[ci]
+        k = self.bodies.index(cond.offset_body)
+        d = cond.offset
+        gain = np.exp(self.log_gain(z))
+        a_obs, _ = self.split(z)
+        ta = total_a[..., ci]
+        tb = total_b[..., ci] + 2 * d * a_obs[..., k]
+        return ta, gain * d, tb, gain * d * d
+
     def _condition_log_likelihood(self, ci: int, total_a, total_b):
         """Log-likelihood of condition ``ci``'s evidence at observed-scale totals (arrays)."""
         cond = self.conditions[ci]
@@ -569,17 +585,13 @@ class Model:
             raise ValueError("log_likelihood_terms: this model's evidence needs the masses")
         if mass is not None:
             mass = np.asarray(mass, float)
-            gain = np.exp(self.log_gain(z))
-            a, _ = self.split(z)
-            index = {b: k for k, b in enumerate(self.bodies)}
+            moved_a, moved_b = total_a.copy(), total_b.copy()
             for ci, cond in enumerate(self.conditions):
                 if cond.offset_body:
-                    k = index[cond.offset_body]
-                    d = cond.offset
-                    total_a = total_a.copy()
-                    total_b = total_b.copy()
-                    total_a[..., ci] += gain * mass[..., k] * d
-                    total_b[..., ci] += 2 * d * a[..., k] + gain * mass[..., k] * d * d
+                    m = mass[..., self.bodies.index(cond.offset_body)]
+                    ta, sa, tb, sb = self._moved_lines(z, ci, total_a, total_b)
+                    moved_a[..., ci], moved_b[..., ci] = ta + sa * m, tb + sb * m
+            total_a, total_b = moved_a, moved_b
         inertia = [
             obs.logpdf(
                 self.conditions[ci].inertia_at(total_b[..., ci], self.gravity * total_a[..., ci])
@@ -593,12 +605,11 @@ class Model:
         }
         if self.measured and mass is not None:
             true_a, _ = self.true_identified(z)
-            index = {b: k for k, b in enumerate(self.bodies)}
             for key in MEASURED:
                 cols = []
                 for body, table in self.measured.items():
                     if key in table:
-                        k = index[body]
+                        k = self.bodies.index(body)
                         value = mass[..., k] if key == "mass" else true_a[..., k] / mass[..., k]
                         cols.append(table[key].logpdf(value))
                 if cols:
@@ -647,14 +658,9 @@ class Model:
                 terms.append((lambda _m, x, obs=obs: obs.logpdf(x), win, cw))
         if k in self.moved_conditions:
             total_a, total_b = self._totals(z)
-            gain = np.exp(self.log_gain(z))
-            a_obs, _ = self.split(z)
             for ci in self.moved_conditions[k]:
                 cond = self.conditions[ci]
-                d = cond.offset
-                ta = total_a[:, ci]
-                tb = total_b[:, ci] + 2 * d * a_obs[:, k]
-                slope_a, slope_b = gain * d, gain * d * d
+                ta, slope_a, tb, slope_b = self._moved_lines(z, ci, total_a, total_b)
                 lo, hi = np.zeros_like(ta), np.full_like(ta, np.inf)
                 core_lo, core_hi = lo, hi
                 g = self.gravity

@@ -32,8 +32,9 @@ from inertiafit.inference.priors import Prior, anthropometric_prior
 from inertiafit.io.manifest import load_study
 from inertiafit.io.outputs import write_csv
 from inertiafit.physics import PARAMETERS
+from inertiafit.posterior.pins import SHORT
 from inertiafit.processing.study import ProcessedStudy, process_study
-from inertiafit.simulate import Noise, simulate_study
+from inertiafit.simulate import PAPER_TRUTH, Noise, simulate_study
 
 __all__ = ["FOREARM", "information_table", "run_information_demo"]
 
@@ -46,7 +47,6 @@ FOREARM: dict[str, str | float] = {
 }
 #: SD of a kitchen scale reading (kg).
 SCALE_SD = 0.005
-SHORT = {"mass": "m", "com_distance": "x", "radius_of_gyration": "rho"}
 
 
 def _box_like(prior: Prior, name: str) -> Prior:
@@ -123,10 +123,11 @@ def run_information_demo(
     echo: Callable[[str], None] = print,
     say: Callable[[str], None] = lambda _msg: None,
 ) -> pd.DataFrame:
-    """The two cases of the module docstring; ``manifest`` is the demo's simulated paper study.
+    """The two cases of the module docstring on the demo's simulated paper study ``manifest``.
 
-    Writes ``out/information.csv`` and ``out/forearm-study/`` (the simulated forearm trials);
-    returns the table.
+    ``manifest`` was written by :func:`inertiafit.simulate.paper_study`, whose truth is
+    :data:`~inertiafit.simulate.PAPER_TRUTH`. Writes ``out/information.csv`` and
+    ``out/forearm-study/`` (the simulated forearm trials); returns the table.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -138,7 +139,10 @@ def run_information_demo(
     study = load_study(manifest)
     processed = process_study(study)
     priors = study_priors(study)
-    truth = _truth(Path(manifest).with_name("truth.toml"))
+    truth = {
+        name: {p: float(getattr(body, p)) for p in PARAMETERS}
+        for name, body in PAPER_TRUTH.items()
+    }
     reading = truth["weight"]["mass"] + SCALE_SD * rng.standard_normal()
     weighed = Observation.from_mean_se(reading, SCALE_SD, where="weighed mass")
     for label, measured in (
@@ -204,16 +208,3 @@ def run_information_demo(
     write_csv(frame, out / "information.csv")
     echo(_text(frame, hdi_prob))
     return frame
-
-
-def _truth(path: Path) -> dict[str, dict[str, float]]:
-    """The simulated study's truth (``truth.toml``: a table per body)."""
-    import tomllib
-
-    table = tomllib.loads(path.read_text(encoding="utf-8"))
-    bodies = table.get("bodies", table)
-    return {
-        name: {p: float(v[p]) for p in PARAMETERS}
-        for name, v in bodies.items()
-        if isinstance(v, dict) and all(p in v for p in PARAMETERS)
-    }
