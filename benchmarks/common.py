@@ -13,8 +13,6 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
 QUANTITIES = ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment")
 
@@ -94,10 +92,7 @@ def best_of(func: Callable[[], object], repeats: int) -> tuple[float, list[float
 
 def accuracy(draws: dict, ref) -> tuple[float, float]:
     """Largest |mean error| in posterior SDs and largest |SD ratio - 1| over the quantities."""
-    return (
-        max(abs(float(np.mean(draws[q])) - ref.mean(q)) / ref.sd(q) for q in QUANTITIES),
-        max(abs(float(np.std(draws[q])) / ref.sd(q) - 1) for q in QUANTITIES),
-    )
+    return ref.agreement({q: draws[q] for q in QUANTITIES})
 
 
 def table(columns: Sequence[tuple[str, str, str]], rows: Sequence[dict]) -> str:

@@ -55,6 +55,20 @@ class ReferencePosterior:
         c = np.cumsum(self.weights[order])
         return np.interp(np.asarray(x), v, c, left=0.0, right=1.0)
 
+    def agreement(self, draws) -> tuple[float, float]:
+        """How far draws are from this posterior: the yardstick of every sampler check.
+
+        ``draws`` maps quantity names to arrays of draws (any shape). Returns the largest
+        ``|mean - reference mean|`` in reference SDs and the largest ``|SD / reference SD - 1|``
+        over those quantities.
+        """
+        worst_mean = worst_sd = 0.0
+        for q, values in draws.items():
+            x = np.ravel(values)
+            worst_mean = max(worst_mean, abs(float(x.mean()) - self.mean(q)) / self.sd(q))
+            worst_sd = max(worst_sd, abs(float(x.std()) / self.sd(q) - 1))
+        return worst_mean, worst_sd
+
     def quantile(self, name: str, q) -> np.ndarray:
         """Posterior quantiles of a quantity."""
         order = np.argsort(self.values[name])
