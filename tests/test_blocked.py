@@ -20,6 +20,9 @@ from inertiafit.inference.reference import reference_posterior, star_reference
 from inertiafit.inference.sampler import SamplerSettings, resolve_moves, sample
 from inertiafit.physics import inertia
 
+# The sampler tests: CI runs them a second time with NumPy's newest CPU features disabled.
+pytestmark = pytest.mark.reproducibility
+
 G = 9.81
 
 

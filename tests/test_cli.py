@@ -86,6 +86,7 @@ def test_netcdf_round_trip_keeps_every_group_and_the_summary(disk_run):
     )
 
 
+@pytest.mark.reproducibility
 def test_same_seed_gives_byte_identical_summary(tmp_path, disk_run):
     out = tmp_path / "again"
     assert main([*DISK, "--out", str(out), "--seed", "4"]) == 0

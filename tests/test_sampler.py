@@ -11,6 +11,9 @@ from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.reference import reference_posterior
 from inertiafit.inference.sampler import SamplerSettings
 
+# The sampler tests: CI runs them a second time with NumPy's newest CPU features disabled.
+pytestmark = pytest.mark.reproducibility
+
 QUANTITIES = ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment")
 TRIALS = np.random.default_rng(11).normal(0.2157, 0.0167, 10)
 

@@ -82,6 +82,7 @@ def test_angle_is_quantised_and_noise_has_the_requested_size():
     assert np.std(trial["velocity"].values[quiet]) == pytest.approx(0.01, rel=0.15)
 
 
+@pytest.mark.reproducibility
 def test_same_seed_same_trial_different_seed_different_trial():
     a = simulate_trial(inertia=0.2, gravity_moment=6.7, rng=7)
     b = simulate_trial(inertia=0.2, gravity_moment=6.7, rng=7)

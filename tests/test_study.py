@@ -88,6 +88,7 @@ def small_study(tmp_path_factory):
     return folder
 
 
+@pytest.mark.reproducibility
 def test_same_seed_same_summary(small_study):
     a = analyse_study(small_study / "study.toml", seed=3).posterior.summary()
     b = analyse_study(small_study / "study.toml", seed=3).posterior.summary()
