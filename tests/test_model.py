@@ -1,10 +1,13 @@
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from inertiafit.errors import InputError
 from inertiafit.inference.model import (
     Condition,
     Model,
+    box_meets,
     draw_angles,
     feasible_angles,
     feasible_measure,
@@ -94,6 +97,77 @@ def test_infeasible_box_is_reported_with_the_mass_bound():
         InputError, match=r"mass upper bound 4\.38 kg is below \(M_g/g\)\^2/I = 5\.67"
     ):
         model.check_feasible()
+
+
+def test_two_trial_values_are_feasible():
+    # Two trials give a Student-t with one degree of freedom, whose 1e-4 quantiles span orders
+    # of magnitude, and the old 61 x 61 grid over them missed the thin feasible curve; a feasible
+    # point (m 3.3, x 0.229, rho 0.112) lies inside the box.
+    p = load_prior("biodex-elbow-attachment")
+    model = Model(
+        {"att": p},
+        [
+            Condition(
+                ("att",),
+                Observation.from_values([0.21, 0.22]),
+                Observation.from_mean_se(7.415, 0.05),
+            )
+        ],
+    )
+    model.check_feasible()
+    assert pytest.approx(7.415, rel=0.01) == 3.3 * 0.229 * 9.81
+    assert inertia(3.3, 0.112, 0.229) == pytest.approx(0.215, rel=0.01)
+
+
+class _Bounds:
+    def __init__(self, lower, upper):
+        self.lower, self.upper = lower, upper
+
+
+KEYS = ("mass", "com_distance", "radius_of_gyration")
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    centre=st.tuples(*(st.floats(0.05, 5.0) for _ in KEYS)),
+    half=st.floats(0.05, 0.6),
+    pick=st.tuples(*(st.floats(0.0, 1.0) for _ in KEYS)),
+    widths=st.tuples(st.floats(1e-4, 3.0), st.floats(1e-4, 3.0)),
+    skew=st.tuples(st.floats(0.0, 1.0), st.floats(0.0, 1.0)),
+)
+def test_box_meets_finds_every_point_of_the_box(centre, half, pick, widths, skew):
+    # Any (m, x, rho) of the box gives an (a, I); a rectangle around it, however thin or wide,
+    # must be found feasible.
+    box = _Bounds(
+        {k: c * (1 - half) for k, c in zip(KEYS, centre, strict=True)},
+        {k: c * (1 + half) for k, c in zip(KEYS, centre, strict=True)},
+    )
+    m, x, rho = (
+        box.lower[k] + f * (box.upper[k] - box.lower[k]) for k, f in zip(KEYS, pick, strict=True)
+    )
+    a, b = m * x, float(inertia(m, rho, x))
+    a_range = (
+        a * (1 - widths[0] * skew[0] / (1 + widths[0])),
+        a * (1 + widths[0] * (1 - skew[0])),
+    )
+    b_range = (
+        b * (1 - widths[1] * skew[1] / (1 + widths[1])),
+        b * (1 + widths[1] * (1 - skew[1])),
+    )
+    assert box_meets(a_range, b_range, box)
+
+
+def test_box_meets_refuses_what_no_point_of_the_box_reaches():
+    box = _Bounds(
+        {"mass": 1.0, "com_distance": 0.1, "radius_of_gyration": 0.05},
+        {"mass": 2.0, "com_distance": 0.2, "radius_of_gyration": 0.1},
+    )
+    # the smallest inertia of the box is 1 * (0.05^2 + 0.1^2) = 0.0125; the largest a is 0.4
+    assert not box_meets((0.05, 0.4), (1e-4, 0.0124), box)
+    assert box_meets((0.05, 0.4), (1e-4, 0.0126), box)
+    assert not box_meets((0.41, 1.0), (0.01, 1.0), box)
+    # a = 0.1 needs I >= a^2/m + m rho_lo^2, least at m = a/rho_lo... within the box 0.0125 at m=1
+    assert not box_meets((0.1, 0.1), (0.0, 0.0124), box)
 
 
 def test_conditions_name_known_bodies():
