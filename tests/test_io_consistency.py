@@ -125,6 +125,36 @@ def test_humac_speed_in_rad_per_s_under_a_deg_per_sec_header_is_refused(tmp_path
         read_trial(path, format="humac")
 
 
+def test_an_angle_in_rad_read_as_deg_is_refused_though_it_sweeps_under_2_deg():
+    # An 83-deg fast move written in rad under a deg header: read as deg it moves 1.45 deg, too
+    # little for the velocity-against-angle comparison, and its inertia came out 8 % high.
+    t, angle, v = stroke(n=60, speed=180.0)
+    as_if_deg = angle * DEG  # the rad numbers taken for degrees, then converted
+    assert np.ptp(as_if_deg) < np.radians(2.0)
+    with pytest.raises(
+        InputError,
+        match=r"^A\.csv: column 'angle' moves 1\.\d+ deg in all while the integral of column "
+        r"'velocity' travels 36 deg in 0\.2 s \(velocity in deg/s read as rad/s, or angle in rad "
+        r"read as deg\?\); correct the angle's unit or channel$",
+    ):
+        make_trial(t, as_if_deg, v, np.ones(t.size), source="A.csv")
+
+
+def test_a_dead_angle_channel_under_a_moving_velocity_is_refused():
+    t, angle, v = stroke(n=120, speed=180.0)
+    with pytest.raises(InputError, match=r"moves 0 deg in all .*a dead or unplugged angle"):
+        make_trial(t, np.full(t.size, angle[0]), v, np.ones(t.size), source="A.csv")
+
+
+def test_an_isometric_velocity_offset_is_not_taken_for_travel():
+    # 3 deg/s of offset and noise on a still shaft integrate to 0.6 deg in 0.2 s: no alarm
+    rng = np.random.default_rng(5)
+    t = np.arange(2000) / RATE
+    angle = (70 + q16(rng.normal(0, 0.05, t.size))) * DEG
+    v = (3.0 + rng.normal(0, 1.0, t.size)) * DEG
+    assert make_trial(t, angle, v, np.ones(t.size), source="iso").attrs["flags"] == ()
+
+
 def test_slow_and_isometric_trials_are_never_refused():
     rng = np.random.default_rng(11)
     # quasi-static: 1 deg/s over 40 deg, angle and velocity on a 1/16-deg grid, velocity noisy

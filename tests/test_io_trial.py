@@ -7,7 +7,7 @@ from inertiafit.io.trial import MIN_SAMPLES, make_trial
 
 def channels(n=50, rate=1000.0, start=0.25):
     t = start + np.arange(n) / rate
-    return t, 0.1 * t, np.full(n, 4.0), 2.0 + t
+    return t, 0.1 * t, np.full(n, 0.1), 2.0 + t
 
 
 def test_trial_contract():

@@ -260,6 +260,8 @@ def make_trial(
         if reverse:
             arrays["velocity"] = -arrays["velocity"]
         notes.extend(said)
+    else:  # the angle never sweeps MIN_SWEEP: does the velocity say the shaft moved?
+        _check_travel(t, arrays["angle"], arrays["velocity"], source, names, units)
     rate = 1.0 / step
     evidence = torque_magnitude or magnitude_evidence(arrays["angle"], arrays["torque"], rate)
     if evidence:
@@ -371,6 +373,69 @@ def compare_velocity(
         else:
             spread = math.inf
     return VelocityCheck(ratio=ratio, stretches=int(r.size), agreement=agreement, spread=spread)
+
+
+#: Longest stretch (s) over which a velocity's travel is held against a still angle: short, so
+#: a velocity offset of an isometric trial (1-2 deg/s) never integrates to MIN_SWEEP in it.
+_TRAVEL_STRETCH = 0.2
+
+
+def _check_travel(
+    time: NDArray,
+    angle: NDArray,
+    velocity: NDArray,
+    source: str,
+    names: Mapping[str, str],
+    units: Mapping[str, str] | None,
+) -> None:
+    """Refuse an angle that barely moves while the velocity travels, over short stretches.
+
+    :func:`compare_velocity` needs the angle to sweep :data:`MIN_SWEEP`; an angle in rad read
+    as deg (a 90 deg move becomes 1.6 deg) or a dead angle channel never does, and the gravity
+    model would then be subtracted at the wrong angles. Here the roles swap: over stretches of
+    up to :data:`_TRAVEL_STRETCH` in which the velocity's integral travels at least
+    :data:`MIN_SWEEP`, the angle must change by at least ``1 / VELOCITY_SCALE_LIMIT`` of it in
+    most of them (:data:`VELOCITY_AGREEMENT`).
+    """
+    n = time.size
+    if n < 2:
+        return
+    with np.errstate(all="ignore"):
+        integral = np.concatenate(
+            ([0.0], np.cumsum(0.5 * np.diff(time) * (velocity[1:] + velocity[:-1])))
+        )
+        step = float(np.median(np.diff(time)))
+        longest = min(max(round(_TRAVEL_STRETCH / step), 1), n - 1)
+        travel = integral[longest:] - integral[:-longest]
+        moved = np.abs(travel) >= MIN_SWEEP
+        if not moved.any():
+            return
+        share = (angle[longest:] - angle[:-longest])[moved] / travel[moved]
+    if np.mean(np.abs(share) < 1 / VELOCITY_SCALE_LIMIT) < VELOCITY_AGREEMENT:
+        return
+    size = float(np.median(np.abs(share)))
+    v_deg = math.degrees(float(np.max(np.abs(travel))))
+    a_deg = math.degrees(float(np.ptp(angle)))
+    factor = 1 / size if size > 0 else math.inf
+    causes = [text for f, text in _UNIT_MIXUPS if abs(math.log(factor / f)) < 0.15]
+    if causes:
+        cause = f"{causes[0]}?"
+    elif a_deg < 1e-9 or factor > 1e4:
+        cause = "a dead or unplugged angle channel?"
+    else:
+        cause = "no unit explains the factor"
+    read_as = ""
+    if units:
+        read_as = (
+            " (read as "
+            + ", ".join(f"{q} {units[q]!r}" for q in ("time", "angle", "velocity") if q in units)
+            + ")"
+        )
+    raise InputError(
+        f"{source}: column '{names['angle']}' moves {a_deg:.3g} deg in all while the integral "
+        f"of column '{names['velocity']}' travels {v_deg:.3g} deg in {_TRAVEL_STRETCH:g} s "
+        f"({cause}){read_as}; correct the angle's unit or channel"
+    )
 
 
 def _judge_velocity(
