@@ -239,3 +239,33 @@ def test_skip_runs_the_study_to_the_end_with_its_inputs_on_record(clean_study, t
     assert (result.trials.status == "ok").all()
     assert result.trials["lag"].isna().all()
     assert len(result.trials) == 7
+
+
+@pytest.mark.parametrize("how", ["copy", "hard link"])
+def test_one_recording_listed_twice_is_refused(clean_study, tmp_path, how):
+    # A byte-identical copy or a hard link of a fast trial under another name would count one
+    # recording twice and narrow the inertia's interval as if it were two.
+    folder = _copy(clean_study, tmp_path)
+    data = folder / "data"
+    if how == "copy":
+        shutil.copyfile(data / "A_240_02.csv", data / "A_240_09.csv")
+    else:
+        (data / "A_240_09.csv").hardlink_to(data / "A_240_02.csv")
+    manifest = folder / "study.toml"
+    manifest.write_text(
+        manifest.read_text()
+        + '\n[[trials]]\nfile = "data/A_240_09.csv"\nbodies = ["attachment"]\nkind = "fast"\n'
+        + "speed = 240.0\n"
+    )
+    with pytest.raises(
+        InputError,
+        match=r"A_240_09\.csv: the same recording as data/A_240_02\.csv \(identical content, "
+        r"SHA-256 [0-9a-f]{12}\.\.\.\); list each recording once$",
+    ):
+        process_study(manifest)
+    # under "skip" the second listing is left out with the reason, the first one counts once
+    manifest.write_text('on_trial_error = "skip"\n' + manifest.read_text())
+    processed = process_study(manifest)
+    inertia = {c.label: c.inertia.n for c in condition_evidence(processed)}
+    assert inertia == {"attachment": 3, "attachment+weight": 3}
+    assert list(processed.skipped.file) == ["data/A_240_09.csv"]

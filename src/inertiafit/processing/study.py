@@ -399,6 +399,7 @@ class _Run:
         self.skipped: dict[int, dict] = {}  # rows of skipped trials, by manifest index
         self.reasons: dict[int, str] = {}
         self.flags: dict[int, tuple[str, ...]] = {}  # reader flags, by manifest index
+        self.contents: dict[str, TrialSpec] = {}  # first trial read of each SHA-256
         self.provenance: dict[int, dict[str, Any]] = {
             t.index: {
                 "file": _relative(t.file, study.base_dir),
@@ -461,8 +462,19 @@ class _Run:
 
 
 def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
-    """Hash and read one trial; its reader flags go to the warnings."""
-    run.provenance[spec.index]["sha256"] = file_sha256(spec.file)
+    """Hash and read one trial; its reader flags go to the warnings.
+
+    A file whose content is that of a trial read before (a copy, a hard link) is refused:
+    one recording counted twice would narrow the intervals as if it were two.
+    """
+    digest = file_sha256(spec.file)
+    run.provenance[spec.index]["sha256"] = digest
+    first = run.contents.setdefault(digest, spec)
+    if first is not spec:
+        raise InputError(
+            f"{spec.file}: the same recording as {_relative(first.file, run.study.base_dir)} "
+            f"(identical content, SHA-256 {digest[:12]}...); list each recording once"
+        )
     ds = spec.read()
     flags = tuple(str(f) for f in (ds.attrs.get("flags", ()) or ()))
     if isinstance(ds.attrs.get("flags"), str):  # one flag stored as a string
