@@ -30,6 +30,7 @@ from inertiafit.io.manifest import file_sha256
 from inertiafit.processing.gravity import GravityFit, fit_gravity
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import lag_consistency_flags
+from inertiafit.processing.plausibility import fast_trial_flags
 from inertiafit.stats import inverse_variance_mean
 
 __all__ = [
@@ -357,6 +358,22 @@ def process_study(
         )
         if est is None:
             continue
+        more = run.attempt(
+            spec,
+            functools.partial(
+                fast_trial_flags,
+                ds,
+                est,
+                gravity[spec.condition],
+                speed_deg_s=spec.speed,
+                window=spec.window,
+                lag_bounds=study.calibration.lag_bounds,
+            ),
+        )
+        if more is None:
+            continue
+        if more:
+            est = dataclasses.replace(est, flags=(*est.flags, *more))
         notes.extend(f"{est.source}: {flag}" for flag in est.flags)
         used_fast.setdefault(spec.condition, []).append(est)
         fast_estimates.append((spec, est))

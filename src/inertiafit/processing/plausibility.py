@@ -1,0 +1,147 @@
+"""Plausibility of a processed fast trial: slips that give a wrong inertia without an error.
+
+Each check compares a setting or a channel with what the trial itself shows, and answers with a
+flag (one line, kept in ``trials.csv`` and the warnings) where the data may still be right, or
+an ``InputError`` naming the trial where the number cannot be:
+
+- a nominal ``speed`` that the trial's constant-speed plateau misses by more than
+  :data:`SPEED_TOLERANCE` (a wrong ``speed``, or a velocity channel in other units: 1.4 x too
+  large gave an inertia 29 % low) — a flag;
+- a manual ``window`` over which the speed hardly changes (a stretch of constant speed holds no
+  acceleration to weigh the inertia by; 2 x too large was seen) — an error below
+  :data:`WINDOW_SPEED_CHANGE_MIN`, a flag below the detector's own
+  :data:`~inertiafit.processing.window.MIN_SPEED_CHANGE`;
+- a fixed ``lag`` longer than the acceleration window (``0.5`` for ``0.005`` s gave -13 %) — an
+  error; outside the study's ``lag_bounds`` — a flag;
+- a torque that over the constant-speed stretch runs against the condition's gravity model (the
+  quasi-static trial signed opposite to the fast ones: +10 to +23 %) — a flag.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import xarray as xr
+
+from inertiafit.errors import InputError
+from inertiafit.processing.filtering import source_of
+from inertiafit.processing.gravity import GravityFit
+from inertiafit.processing.inertia import InertiaEstimate
+from inertiafit.processing.window import MIN_SPEED_CHANGE
+
+__all__ = [
+    "SIGN_CORRELATION",
+    "SPEED_TOLERANCE",
+    "WINDOW_SPEED_CHANGE_MIN",
+    "fast_trial_flags",
+    "plateau_speed",
+]
+
+#: Largest relative difference between the measured plateau speed and the nominal ``speed``.
+SPEED_TOLERANCE = 0.2
+#: A manual window changing the speed by less than this fraction of the plateau is refused.
+WINDOW_SPEED_CHANGE_MIN = 0.1
+#: Correlation of torque and gravity model over the constant-speed stretch below which the
+#: torque is taken to run against the model (consistent trials of the simulator show > 0.9).
+SIGN_CORRELATION = -0.5
+
+
+def plateau_speed(velocity: np.ndarray) -> float:
+    """The trial's constant speed (rad/s): median of ``|velocity|`` where it tops half its peak."""
+    u = np.abs(np.asarray(velocity, dtype=np.float64))
+    top = float(np.max(u)) if u.size else 0.0
+    return float(np.median(u[u >= 0.5 * top])) if top > 0 else 0.0
+
+
+def fast_trial_flags(
+    trial: xr.Dataset,
+    estimate: InertiaEstimate,
+    gravity: GravityFit,
+    *,
+    speed_deg_s: float | None = None,
+    window: Sequence[float] | None = None,
+    lag_bounds: Sequence[float] = (-0.02, 0.02),
+) -> list[str]:
+    """Flags of the slips above for one fast trial; raises ``InputError`` where it cannot be right.
+
+    ``speed_deg_s``, ``window`` are the trial's settings (``None``: not given); ``estimate`` is
+    :func:`~inertiafit.processing.inertia.estimate_inertia`'s result on ``trial`` with
+    ``gravity``, whose filtered velocity and acceleration it reuses.
+    """
+    source = source_of(trial)
+    time = trial["time"].values
+    u = estimate.velocity if estimate.velocity is not None else trial["velocity"].values
+    plateau = plateau_speed(u)
+    flags: list[str] = []
+    if speed_deg_s and plateau > 0:
+        measured = math.degrees(plateau)
+        off = measured / float(speed_deg_s) - 1
+        if abs(off) > SPEED_TOLERANCE:
+            flags.append(
+                f"speed: the trial runs at {measured:.4g} deg/s, {off:+.0%} from its nominal "
+                f"speed {float(speed_deg_s):g} deg/s (a wrong speed, or a velocity channel in "
+                "other units?)"
+            )
+    duration = estimate.window_end - estimate.window_start
+    if window is not None and plateau > 0:
+        i0, i1 = np.searchsorted(time, [estimate.window_start, estimate.window_end])
+        i1 = min(int(i1), time.size - 1)
+        change = abs(float(u[i1]) - float(u[int(i0)])) / plateau
+        where = f"[{estimate.window_start:.4g}, {estimate.window_end:.4g}] s"
+        if change < WINDOW_SPEED_CHANGE_MIN:
+            raise InputError(
+                f"{source}: window: {where} changes the speed by {change:.0%} of the trial's "
+                f"{math.degrees(plateau):.4g} deg/s: a stretch of constant speed has no "
+                "acceleration to weigh the inertia by; put the window on the speed-up"
+            )
+        if change < MIN_SPEED_CHANGE:
+            flags.append(
+                f"window: the manual window {where} changes the speed by only {change:.0%} "
+                f"of the trial's {math.degrees(plateau):.4g} deg/s (the detector asks "
+                f"{MIN_SPEED_CHANGE:.0%})"
+            )
+    if estimate.lag_source == "manifest":
+        lag = estimate.lag
+        lower, upper = (float(b) for b in lag_bounds)
+        if abs(lag) > duration:
+            raise InputError(
+                f"{source}: lag: {lag:g} s is longer than the trial's acceleration window "
+                f"({duration:.3g} s): the torque would be matched to samples outside the "
+                f"speed-up; a torque channel lags by milliseconds (lag_bounds {lower:g} to "
+                f"{upper:g} s)"
+            )
+        if not lower <= lag <= upper:
+            flags.append(
+                f"lag: the fixed lag {lag:g} s is outside lag_bounds {lower:g} to {upper:g} s"
+            )
+    flags.extend(_sign_flags(trial, estimate, gravity, plateau))
+    return flags
+
+
+def _sign_flags(
+    trial: xr.Dataset, estimate: InertiaEstimate, gravity: GravityFit, plateau: float
+) -> list[str]:
+    """A flag when the cruise torque runs against the gravity model of the condition."""
+    if estimate.acceleration is None or plateau <= 0:
+        return []
+    u = np.abs(estimate.velocity if estimate.velocity is not None else trial["velocity"].values)
+    alpha = np.abs(estimate.acceleration)
+    cruise = (u > 0.8 * plateau) & (alpha < 0.2 * float(np.max(alpha)))
+    if cruise.sum() < 20:
+        return []
+    model = gravity.torque(trial["angle"].values[cruise])
+    torque = trial["torque"].values[cruise]
+    spread = float(np.std(model))
+    if spread < 0.1 * abs(gravity.gravity_moment) or float(np.std(torque)) == 0.0:
+        return []  # the cruise sweeps too little of the model to tell its sign
+    r = float(np.corrcoef(torque, model)[0, 1])
+    if not r < SIGN_CORRELATION:
+        return []
+    flag = (
+        f"torque: over the constant-speed stretch it runs against the condition's gravity model "
+        f"(correlation {r:.2f}): the quasi-static trial may be signed opposite to this one "
+        "(torque_sign of one of them?)"
+    )
+    return [flag]
