@@ -389,3 +389,41 @@ def test_bad_data_reaches_the_user_with_the_trial_file_named(study_dir):
     study = load_study(manifest(study_dir, BODIES + TRIALS))
     with pytest.raises(InputError, match=r"A_240_01\.csv: line 2, column 'velocity': 'fast'"):
         study.read(1)
+
+
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [
+        ("a/b", r"no '/' in a name"),
+        ("x" * 300, r"at most 64 characters \(it names output files\), got 300"),
+        ("a\x00b", r"no '\\x00' in a name"),
+        (".hidden", r"does not start with '\.'"),
+        ("arm+hand", r"no '\+' in a name"),
+        ("", r"not empty"),
+    ],
+)
+def test_body_names_that_cannot_name_a_file_are_refused_before_any_work(study_dir, name, expected):
+    # A body's name becomes part of output file names (corner-<body>.pdf) and condition labels;
+    # these ended in a traceback after sampling.
+    key = '"' + name.replace("\\", "\\\\").replace("\x00", "\\u0000") + '"'
+    text = (
+        (BODIES + TRIALS)
+        .replace("[bodies.weight]", f"[bodies.{key}]")
+        .replace('["weight", "attachment"]', f'[{key}, "attachment"]')
+    )
+    with pytest.raises(
+        InputError, match=r"study\.toml: bodies: body .*: expected .*" + expected
+    ) as err:
+        load_study(manifest(study_dir, text))
+    assert "\n" not in str(err.value)
+    assert len(str(err.value)) < 300 + len(str(study_dir))
+
+
+def test_a_body_name_in_any_script_with_spaces_is_accepted(study_dir):
+    text = (
+        (BODIES + TRIALS)
+        .replace("[bodies.weight]", '[bodies."Unterarm (links)"]')
+        .replace('["weight", "attachment"]', '["Unterarm (links)", "attachment"]')
+    )
+    study = load_study(manifest(study_dir, text))
+    assert "Unterarm (links)" in study.bodies

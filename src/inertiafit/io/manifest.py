@@ -764,6 +764,29 @@ def load_study(path: str | Path) -> Study:
     )
 
 
+#: Longest body name: it becomes part of file names (``corner-<body>.pdf``) and condition labels.
+MAX_BODY_NAME = 64
+#: Characters a body name may not hold: path separators and what Windows refuses in a file
+#: name, and ``+``/``@``, which join bodies and offsets in a condition's label.
+_BODY_NAME_FORBIDDEN = frozenset('/\\:*?"<>|+@')
+
+
+def _check_body_name(name: str, where: str) -> None:
+    """A body name must be safe as part of a file name and a condition label."""
+    shown = repr(name[:40] + ("..." if len(name) > 40 else ""))
+    bad = sorted({c for c in name if c in _BODY_NAME_FORBIDDEN or not c.isprintable()})
+    if not name.strip() or name != name.strip() or name.startswith("."):
+        why = "a name that does not start with '.' or a space and is not empty"
+    elif len(name) > MAX_BODY_NAME:
+        why = f"at most {MAX_BODY_NAME} characters (it names output files), got {len(name)}"
+    elif bad:
+        listed = " ".join(repr(c) for c in bad)
+        why = f"no {listed} in a name (it names output files and condition labels)"
+    else:
+        return
+    raise _fail(f"{where}: bodies", f"body {shown}: expected {why}")
+
+
 def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
     raw = doc.get("bodies")
     if not raw:
@@ -771,6 +794,7 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
     raw = _table(raw, where=f"{where}: bodies", what="[bodies.<name>] tables")
     bodies = {}
     for name, raw_entry in raw.items():
+        _check_body_name(name, where)
         here = f"{where}: bodies.{name}"
         entry = _table(raw_entry, where=here, what="prior = ...")
         for key in entry:
