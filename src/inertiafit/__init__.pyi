@@ -9,8 +9,9 @@ from .inference.reference import reference_posterior
 from .inference.sampler import SamplerSettings, sample
 from .io import load_study, read_trial
 from .pipeline.batch import run_many
-from .pipeline.plan import Design, Mounting, NoiseLevels, plan
 from .pipeline.study import analyse_study, run_study
+from .planning.design import Design, Mounting, NoiseLevels
+from .planning.planner import plan
 from .posterior import Posterior, open_posterior
 
 __version__: str
