@@ -16,7 +16,7 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import load_prior, parse_prior
 from inertiafit.inference.reference import reference_posterior
 from inertiafit.inference.sampler import SamplerSettings
-from inertiafit.inference.sbc import calibrated, calibration_table, extra_design, run_sbc
+from inertiafit.validation.sbc import calibrated, calibration_table, extra_design, run_sbc
 
 QUANTITIES = ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment")
 TRUE = (2.76, 0.236, 0.13)  # an elbow attachment: m, x, rho (its prior box is +-50 %)
