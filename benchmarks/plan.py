@@ -33,7 +33,8 @@ import time
 import numpy as np
 from common import standalone, table
 
-from inertiafit.planning.design import Design, Mounting
+from inertiafit.mounting import Mounting
+from inertiafit.planning.design import Design
 from inertiafit.planning.planner import plan
 from inertiafit.simulate import PAPER_TRUTH
 from inertiafit.validation.widths import simulated_widths

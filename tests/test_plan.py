@@ -14,8 +14,9 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.predict import hdi_width, posterior_widths
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.reference import reference_posterior
+from inertiafit.mounting import Mounting
 from inertiafit.pipeline.plan import run_plan
-from inertiafit.planning.design import ConditionNoise, Design, Mounting, NoiseLevels
+from inertiafit.planning.design import ConditionNoise, Design, NoiseLevels
 from inertiafit.planning.files import load_plan_file, pilot_inputs
 from inertiafit.planning.planner import offset_scan, plan
 from inertiafit.validation.widths import simulated_widths

@@ -1,7 +1,7 @@
 """What a session would measure: designs, their conditions and the noise of a trial.
 
-A :class:`Design` names the conditions measured (:class:`Mounting`: bodies mounted together,
-one of them maybe moved along the lever), the fast trials per speed, the quasi-static trials,
+A :class:`Design` names the conditions measured (a :class:`~inertiafit.mounting.Mounting`
+each: bodies mounted together, one of them maybe moved along the lever), the fast trials per speed, the quasi-static trials,
 the bodies weighed or balanced, per-body priors and the torque gain's SD. :class:`NoiseLevels`
 is the noise of one trial (nominal levels, or a pilot's per condition,
 :class:`ConditionNoise`). :func:`nominal_values` reads each body's nominal ``(m, x, rho)``;
@@ -19,6 +19,7 @@ import numpy as np
 
 from inertiafit._checks import check_number, check_positive
 from inertiafit.errors import InputError
+from inertiafit.mounting import Mounting
 from inertiafit.physics import PARAMETERS
 
 __all__ = [
@@ -27,7 +28,6 @@ __all__ = [
     "PAPER_INERTIA_SD",
     "ConditionNoise",
     "Design",
-    "Mounting",
     "NoiseLevels",
     "design_variants",
     "is_whole",
@@ -51,32 +51,6 @@ PAPER_GRAVITY_MOMENT_SE = 0.023
 def is_whole(value: Any) -> bool:
     """Whether ``value`` is a whole number (not a bool)."""
     return isinstance(value, int | np.integer) and not isinstance(value, bool)
-
-
-@dataclass(frozen=True)
-class Mounting:
-    """One condition of a design: bodies mounted together, one of them maybe moved.
-
-    Attributes
-    ----------
-    bodies : tuple of str
-        The mounted bodies.
-    offset_body, offset : str, float
-        A second mounting: this body sits ``offset`` m further out along the lever (``""``:
-        none), as :class:`~inertiafit.inference.model.Condition`.
-    """
-
-    bodies: tuple[str, ...]
-    offset_body: str = ""
-    offset: float = 0.0
-
-    @property
-    def label(self) -> str:
-        """``attachment+forearm`` (``@forearm+0.05m`` when moved)."""
-        text = "+".join(self.bodies)
-        if self.offset_body:
-            text += f"@{self.offset_body}{self.offset:+g}m"
-        return text
 
 
 @dataclass(frozen=True)

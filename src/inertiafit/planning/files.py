@@ -22,8 +22,9 @@ import pandas as pd
 from inertiafit._checks import check_number, check_positive, check_probability
 from inertiafit.errors import InputError
 from inertiafit.inference.priors import load_prior, priors_from_posterior
+from inertiafit.mounting import Mounting
 from inertiafit.physics import PARAMETERS
-from inertiafit.planning.design import ConditionNoise, Design, Mounting, NoiseLevels
+from inertiafit.planning.design import ConditionNoise, Design, NoiseLevels
 
 __all__ = ["load_plan_file", "pilot_inputs"]
 

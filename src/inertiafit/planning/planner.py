@@ -22,14 +22,16 @@ from typing import Any
 
 import pandas as pd
 
+from inertiafit import physics
 from inertiafit._checks import check_positive, check_probability
 from inertiafit.errors import InputError
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.predict import DRAWS, posterior_widths
 from inertiafit.inference.priors import Prior, load_prior
-from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED, moved_moments
-from inertiafit.planning.design import Design, Mounting, NoiseLevels, is_whole, nominal_values
+from inertiafit.mounting import Mounting
+from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED
+from inertiafit.planning.design import Design, NoiseLevels, is_whole, nominal_values
 
 __all__ = [
     "PLAN_COLUMNS",
@@ -37,6 +39,7 @@ __all__ = [
     "design_model",
     "offset_scan",
     "plan",
+    "reported_values",
 ]
 
 #: Columns of ``plan.csv``.
@@ -53,6 +56,22 @@ PLAN_COLUMNS = [
     "target_width",
     "meets_target",
 ]
+
+
+def reported_values(
+    nominal: Mapping[str, Mapping[str, float]], gravity: float = GRAVITY
+) -> dict[str, dict[str, float]]:
+    """Every body's nominal parameters with its ``inertia`` and ``gravity_moment``."""
+    return {
+        name: {
+            **v,
+            "inertia": float(
+                physics.inertia(v["mass"], v["radius_of_gyration"], v["com_distance"])
+            ),
+            "gravity_moment": float(physics.gravity_moment(v["mass"], v["com_distance"], gravity)),
+        }
+        for name, v in nominal.items()
+    }
 
 
 def design_model(
@@ -73,38 +92,21 @@ def design_model(
     """
     noise = noise or NoiseLevels()
     nominal = nominal_values(bodies)
+    truth = reported_values(nominal, gravity)
     conditions = []
     for mount in design.mountings:
-        total_a = total_b = 0.0
-        for b in mount.bodies:
-            v = nominal[b]
-            a = v["mass"] * v["com_distance"]
-            i = v["mass"] * (v["radius_of_gyration"] ** 2 + v["com_distance"] ** 2)
-            if b == mount.offset_body:
-                a, i = (float(t) for t in moved_moments(a, i, v["mass"], mount.offset))
-            total_a += a
-            total_b += i
+        total_b, moment = (float(v) for v in mount.totals(truth, gravity))
         n = design.trials_per_speed * len(design.speeds)
         sd = noise.trial_sd(mount, total_b, design.speeds)
         obs_i = Observation(total_b, sd / math.sqrt(n), n - 1.0, n)
         se = noise.gravity_se(mount) / math.sqrt(design.quasi_static_trials)
-        obs_g = Observation.from_mean_se(gravity * total_a, se, where=f"{mount.label} M_g")
+        obs_g = Observation.from_mean_se(moment, se, where=f"{mount.label} M_g")
         pilot = noise.pilot(mount)
         coupling = 0.0
         if pilot is not None:
             obs_i = obs_i.with_shared_error(pilot.shared_sd)
             coupling = pilot.coupling
-        conditions.append(
-            Condition(
-                tuple(mount.bodies),
-                obs_i,
-                obs_g,
-                label=mount.label,
-                coupling=coupling,
-                offset_body=mount.offset_body,
-                offset=mount.offset,
-            )
-        )
+        conditions.append(Condition(mount, obs_i, obs_g, coupling=coupling))
     measured: dict[str, dict[str, Observation]] = {}
     for body, sd in design.weighed.items():
         measured.setdefault(body, {})["mass"] = Observation.from_mean_se(
@@ -208,13 +210,9 @@ class PlanResult:
 
 def _rows(design, widths, nominal, targets, gravity) -> list[dict]:
     rows = []
+    values = reported_values(nominal, gravity)
     for k, body in enumerate(widths.bodies):
-        v = nominal[body]
-        truth = {
-            **v,
-            "inertia": v["mass"] * (v["radius_of_gyration"] ** 2 + v["com_distance"] ** 2),
-            "gravity_moment": gravity * v["mass"] * v["com_distance"],
-        }
+        truth = values[body]
         for p in REPORTED:
             w = float(widths.hdi_width[p][k])
             target = targets.get((body, p), math.nan)

@@ -66,10 +66,6 @@ def simulated_widths(
             if isinstance(spec, Prior):
                 raise InputError(f"simulated_widths: prior of '{b}': give a name or a table")
             specs[b] = spec
-    conditions: list[Any] = [
-        {"bodies": m.bodies, "offset": {m.offset_body: m.offset}} if m.offset_body else m.bodies
-        for m in design.mountings
-    ]
     measured: dict[str, dict[str, float]] = {}
     for b, sd in design.weighed.items():
         measured.setdefault(b, {})["mass"] = float(sd)
@@ -87,7 +83,7 @@ def simulated_widths(
                 )
                 for b in used
             },
-            conditions=conditions,
+            conditions=design.mountings,
             speeds=design.speeds,
             trials_per_speed=design.trials_per_speed,
             seed=seed + r,
