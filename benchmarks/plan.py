@@ -1,6 +1,6 @@
 """`inertiafit plan` against full simulated studies: predicted vs simulated posterior widths.
 
-For each design, `inertiafit.pipeline.plan.plan` predicts every body's posterior SD and 95 %
+For each design, `inertiafit.planning.planner.plan` predicts every body's posterior SD and 95 %
 HDI width from the expected data (importance sampling around a linearised fit, no sampler),
 and `simulated_widths` runs R full simulated studies of the same design (trial files at 1 kHz
 with `Noise.paper()`, truth = the nominal values, each through `analyse_study`) and averages
@@ -33,8 +33,11 @@ import time
 import numpy as np
 from common import standalone, table
 
-from inertiafit.pipeline.plan import Design, Mounting, plan, simulated_widths
+from inertiafit.mounting import Mounting
+from inertiafit.planning.design import Design
+from inertiafit.planning.planner import plan
 from inertiafit.simulate import PAPER_TRUTH
+from inertiafit.validation.widths import simulated_widths
 
 BODIES = {
     b: {"mass": v.mass, "radius_of_gyration": v.radius_of_gyration, "com_distance": v.com_distance}

@@ -1,6 +1,6 @@
 """Simulation-based calibration (Talts et al. 2018): the posterior is right on average.
 
-Designs (``inertiafit.inference.sbc.attachment_design``): one body (the paper's attachment,
+Designs (``inertiafit.validation.sbc.attachment_design``): one body (the paper's attachment,
 ±50 % box), and an attachment measured alone and with each of K = 1, 3, 10 segments. Each
 with three kinds of evidence on both observables: five trial values per condition
 (Student-t), their mean and SD with n = 5 (the same Student-t), or one value with its SE
@@ -13,7 +13,7 @@ two-sided binomial p-value). A design passes when no p-value is below 0.001 / (n
 tests) (Bonferroni). Segment rows summarise all K segments: the smallest p-value and the
 range of coverages.
 
-Extra information (``inertiafit.inference.sbc.extra_design``): an attachment alone and with one
+Extra information (``inertiafit.validation.sbc.extra_design``): an attachment alone and with one
 segment (Gaussian evidence) with a second mounting, weighed masses, a balance point, a known
 added mass with a torque gain, all of them at once, and the segment under a de Leva (1996) prior
 (truths drawn from it); 100 studies each.
@@ -35,7 +35,8 @@ import sys
 
 from common import standalone, table
 
-from inertiafit.inference.sbc import (
+from inertiafit.posterior.pins import SHORT
+from inertiafit.validation.sbc import (
     EVIDENCE,
     EXTRA_KINDS,
     attachment_design,
@@ -44,7 +45,6 @@ from inertiafit.inference.sbc import (
     extra_design,
     run_sbc,
 )
-from inertiafit.posterior.pins import SHORT
 
 ALPHA = 0.001
 #: Studies per design with extra information (``sbc.extra_design``), full run.

@@ -17,7 +17,9 @@ from inertiafit.errors import InputError
 from inertiafit.inference import anthropometric as an
 from inertiafit.inference.fit import fit
 from inertiafit.inference.priors import anthropometric_prior, load_prior, parse_prior
-from inertiafit.inference.sbc import (
+from inertiafit.io import load_study
+from inertiafit.physics import REPORTED
+from inertiafit.validation.sbc import (
     SBC_SETTINGS,
     Design,
     SBCResult,
@@ -27,8 +29,6 @@ from inertiafit.inference.sbc import (
     run_sbc,
     sbc_ranks,
 )
-from inertiafit.io import load_study
-from inertiafit.physics import REPORTED
 
 SEGMENTS = ("forearm", "hand", "forearm+hand", "upper-arm", "shank", "foot", "shank+foot", "thigh")
 

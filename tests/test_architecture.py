@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import re
 import sys
 import tomllib
 from pathlib import Path
@@ -251,3 +252,44 @@ def test_every_warning_is_an_inertiafit_warning():
     assert warnings
     assert all(issubclass(w, errors.InertiafitWarning) for w in warnings)
     assert importlib.import_module("inertiafit").ConvergenceWarning is errors.ConvergenceWarning
+
+
+def _names_on_page(page: str) -> set[str]:
+    """Every backticked name on ``page`` as a dotted module name below ``inertiafit``.
+
+    ``inertiafit.io.units``, ``io.units``, ``src/inertiafit/io/units.py`` and ``io/units.py``
+    all read as ``io.units``; a package may also be written as its folder (``io/``).
+    """
+    out = set()
+    for token in re.findall(r"`([^`\n]+)`", page):
+        name = token.strip().removeprefix("src/").removeprefix("inertiafit/")
+        name = name.removeprefix("inertiafit.").removesuffix("/").removesuffix(".py")
+        out.add(name.replace("/", "."))
+    return out
+
+
+def _modules_missing_from(page: str) -> list[str]:
+    named = _names_on_page(page)
+    return [
+        name
+        for name in MODULES
+        if name != "inertiafit" and name.removeprefix("inertiafit.") not in named
+    ]
+
+
+def test_every_module_is_named_on_the_architecture_page():
+    page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    assert _modules_missing_from(page) == []
+
+
+def test_the_page_check_finds_a_module_that_is_not_named():  # negative control
+    page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    assert "`mounting`" in page
+    without = page.replace("`mounting`", "mounting").replace("`mounting.py`", "mounting.py")
+    without = without.replace("`mounting.Mounting`", "Mounting")
+    assert _modules_missing_from(without) == ["inertiafit.mounting"]
+    assert _names_on_page("`src/inertiafit/io/readers/csv.py` `inertiafit.report.html` `io/`") == {
+        "io.readers.csv",
+        "report.html",
+        "io",
+    }

@@ -10,7 +10,7 @@ import pytest
 
 from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.inference import moves
-from inertiafit.inference.blocked import BlockedGibbs, star_structure
+from inertiafit.inference.blocked import BlockedGibbs
 from inertiafit.inference.fit import fit
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.moves import laplace_fit, proposal_df
@@ -18,6 +18,7 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.inference.reference import reference_posterior, star_reference
 from inertiafit.inference.sampler import SamplerSettings, resolve_moves, sample
+from inertiafit.inference.star import star_structure
 from inertiafit.physics import inertia
 
 # The sampler tests: CI runs them a second time with NumPy's newest CPU features disabled.

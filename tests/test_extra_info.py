@@ -15,7 +15,7 @@ from inertiafit.inference.fit import fit, fit_body
 from inertiafit.inference.model import Model
 from inertiafit.inference.sampler import SamplerSettings
 from inertiafit.io import load_study
-from inertiafit.io.manifest import condition_label
+from inertiafit.mounting import Mounting
 from inertiafit.processing.study import process_study
 from inertiafit.simulate import PAPER_PRIORS, PAPER_TRUTH, Noise, simulate_study
 
@@ -134,9 +134,9 @@ def test_offset_and_added_masses_make_their_own_conditions(folder):
         "attachment+added0.5kg@30cm",
         "attachment+added0.2kg@-10cm+added0.5kg@30cm",
     ]
-    # label -> bodies keeps working; the specs carry the rest
+    # label -> bodies keeps working; the mountings carry the rest
     assert study.conditions["attachment+disk@disk+5cm"] == ("attachment", "disk")
-    specs = study.condition_specs
+    specs = study.mountings
     assert specs["attachment+disk"].plain
     moved_spec = specs["attachment+disk@disk+5cm"]
     assert (moved_spec.offset_body, moved_spec.offset) == ("disk", 0.05)
@@ -146,8 +146,8 @@ def test_offset_and_added_masses_make_their_own_conditions(folder):
 
 
 def test_labels_are_unchanged_without_extra_keys_and_unique_with_them(folder):
-    assert condition_label(("attachment", "disk")) == "attachment+disk"
-    assert condition_label(("a", "b"), "b", -0.0125) == "a+b@b-12.5mm"
+    assert Mounting(("attachment", "disk")).label == "attachment+disk"
+    assert Mounting(("a", "b"), "b", -0.0125).label == "a+b@b-12.5mm"
     # two added masses that differ only in their radius of gyration: distinct conditions
     first = "added_mass = { mass = 0.5, com_distance = 0.3 }\n"
     second = "added_mass = { mass = 0.5, com_distance = 0.3, radius_of_gyration = 0.05 }\n"

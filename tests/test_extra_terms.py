@@ -16,7 +16,7 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import load_prior, parse_prior
 from inertiafit.inference.reference import reference_posterior
 from inertiafit.inference.sampler import SamplerSettings
-from inertiafit.inference.sbc import calibrated, calibration_table, extra_design, run_sbc
+from inertiafit.validation.sbc import calibrated, calibration_table, extra_design, run_sbc
 
 QUANTITIES = ("mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment")
 TRUE = (2.76, 0.236, 0.13)  # an elbow attachment: m, x, rho (its prior box is +-50 %)
@@ -83,8 +83,7 @@ def test_a_known_added_mass_is_the_same_as_removing_it_from_the_evidence():
                 ("disk",),
                 Observation.from_mean_se(I_TRUE + float(b_add), 0.003),
                 Observation.from_mean_se(MG_TRUE + g * float(a_add), 0.03),
-                added_first_moment=float(a_add),
-                added_inertia=float(b_add),
+                added=((0.5, 0.3, 0.02),),
             )
         ],
     )
@@ -102,9 +101,9 @@ def test_a_known_added_mass_is_the_same_as_removing_it_from_the_evidence():
     z = np.log([[TRUE[0] * TRUE[1], I_TRUE]]) + 0.01 * rng.standard_normal((50, 2))
     assert np.allclose(with_added.log_prob(z), plain.log_prob(z), atol=1e-9)
     # negative control: the same evidence without declaring the added mass is another posterior
-    undeclared = Model({"disk": prior}, [dataclasses.replace(with_added.conditions[0],
-                                                             added_first_moment=0.0,
-                                                             added_inertia=0.0)])  # fmt: skip
+    cond = with_added.conditions[0]
+    plain_mounting = dataclasses.replace(cond.mounting, added=())
+    undeclared = Model({"disk": prior}, [dataclasses.replace(cond, mounting=plain_mounting)])
     assert not np.allclose(undeclared.log_prob(z), plain.log_prob(z), atol=1.0)
 
 
@@ -143,8 +142,8 @@ def test_the_angle_grid_integrates_a_weighed_mass_as_well_as_a_fine_quadrature()
         ({"offset_body": "other", "offset": 0.1}, "is not mounted"),
         ({"offset_body": "disk", "offset": 0.0}, "non-zero distance"),
         ({"offset": 0.1}, "needs the body"),
-        ({"added_inertia": -1.0}, "added_inertia"),
-        ({"added_first_moment": float("nan")}, "added_first_moment"),
+        ({"added": ((-1.0, 0.3, 0.0),)}, "added mass"),
+        ({"added": ((0.5, float("nan"), 0.0),)}, "added mass"),
     ],
 )
 def test_bad_conditions_say_what_is_wrong_in_one_line(kwargs, message):

@@ -14,17 +14,12 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.predict import hdi_width, posterior_widths
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.reference import reference_posterior
-from inertiafit.pipeline.plan import (
-    Design,
-    Mounting,
-    NoiseLevels,
-    load_plan_file,
-    offset_scan,
-    pilot_inputs,
-    plan,
-    run_plan,
-    simulated_widths,
-)
+from inertiafit.mounting import Mounting
+from inertiafit.pipeline.plan import run_plan
+from inertiafit.planning.design import ConditionNoise, Design, NoiseLevels
+from inertiafit.planning.files import load_plan_file, pilot_inputs
+from inertiafit.planning.planner import offset_scan, plan
+from inertiafit.validation.widths import simulated_widths
 
 BODIES = {"attachment": (2.91, 0.13, 0.225), "forearm": (1.6, 0.075, 0.16)}
 PAPER = (Mounting(("attachment",)), Mounting(("attachment", "forearm")))
@@ -121,7 +116,6 @@ def test_offset_scan_second_mounting_narrows_with_the_offset():
 
 
 def test_pilot_noise_is_used_for_its_conditions_and_interpolated_in_speed():
-    from inertiafit.pipeline.plan import ConditionNoise
 
     pilot = ConditionNoise({240.0: 0.01, 300.0: 0.03}, 0.02)
     noise = NoiseLevels(conditions={frozenset(["attachment"]): pilot})

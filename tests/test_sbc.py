@@ -18,7 +18,7 @@ import pytest
 from scipy import integrate, stats
 
 from inertiafit.errors import InputError
-from inertiafit.inference.sbc import (
+from inertiafit.validation.sbc import (
     SBCResult,
     attachment_design,
     calibrated,

@@ -21,14 +21,14 @@ from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.inference.reference import gain_reference, reference_posterior, star_reference
 from inertiafit.inference.sampler import SamplerSettings, sample
-from inertiafit.inference.sbc import (
+from inertiafit.stats import SmearedStudentT
+from inertiafit.validation.sbc import (
     attachment_design,
     calibrated,
     calibration_table,
     draw_truth_and_data,
     run_sbc,
 )
-from inertiafit.stats import SmearedStudentT
 
 ALPHA = 0.001
 PRIOR = Prior.box("att", mass=2.91, com_distance=0.225, radius_of_gyration=0.13)

@@ -8,9 +8,11 @@ from .inference.priors import Prior, available_priors, load_prior
 from .inference.reference import reference_posterior
 from .inference.sampler import SamplerSettings, sample
 from .io import load_study, read_trial
+from .mounting import Mounting
 from .pipeline.batch import run_many
-from .pipeline.plan import Design, Mounting, NoiseLevels, plan
 from .pipeline.study import analyse_study, run_study
+from .planning.design import Design, NoiseLevels
+from .planning.planner import plan
 from .posterior import Posterior, open_posterior
 
 __version__: str

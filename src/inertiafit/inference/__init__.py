@@ -11,9 +11,10 @@
 - :mod:`~inertiafit.inference.sampler` (emcee) and :mod:`~inertiafit.inference.blocked` (the
   blocked Gibbs sampler for an attachment with segments);
 - :mod:`~inertiafit.inference.fit`: where the posterior is sampled and packaged;
-- :mod:`~inertiafit.inference.reference`: the exact quadrature posterior the sampler is held to;
-- :mod:`~inertiafit.inference.sbc`: simulation-based calibration (truths from the boxes, data
-  from the likelihood, ranks of the truths among posterior draws).
+- :mod:`~inertiafit.inference.reference`: the exact quadrature posterior the sampler is held to.
+
+Simulation-based calibration of all this is a validation harness outside the layer
+(:mod:`inertiafit.validation.sbc`).
 """
 
 from __future__ import annotations

@@ -90,12 +90,12 @@ def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
     The inertia's evidence carries the error of the condition's gravity model
     (:func:`shared_gravity_error`): a ``coupling`` to the gravity moment and a Gaussian
     ``shared_sd``. A condition whose trials move a body along the lever (``offset``) or add
-    known masses (``added_mass``) carries them (:attr:`inertiafit.io.Study.condition_specs`).
+    known masses (``added_mass``) carries them (:attr:`inertiafit.io.Study.mountings`).
     """
     study = processed.study
-    specs = study.condition_specs
+    mountings = study.mountings
     out = []
-    for label, bodies in study.conditions.items():
+    for label in study.conditions:
         sub = processed.trials[processed.trials["condition"] == label]
         fast = sub[sub["kind"] == "fast"]
         where = f"{study.path}: condition {label}"
@@ -118,21 +118,7 @@ def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
                 sens = processed.sensitivity.loc[fast["file"], ["sin", "cos", "offset"]]
                 coupling, shared = shared_gravity_error(g.coefficients, g.covariance, sens)
                 obs_i = obs_i.with_shared_error(shared)
-        spec = specs[label]
-        added_a, added_i = spec.added_moments
-        out.append(
-            Condition(
-                tuple(bodies),
-                obs_i,
-                obs_g,
-                label=label,
-                coupling=coupling,
-                offset_body=spec.offset_body,
-                offset=spec.offset,
-                added_first_moment=added_a,
-                added_inertia=added_i,
-            )
-        )
+        out.append(Condition(mountings[label], obs_i, obs_g, label=label, coupling=coupling))
     return out
 
 

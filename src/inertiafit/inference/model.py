@@ -55,8 +55,9 @@ it allows fill a small part of ``Psi(a, b)``, so the grid is cut to the masses e
 :data:`N_EXTRA_CELLS` equal cells over each, merged. A moved body's condition involves the other
 bodies it is mounted with, so its evidence is evaluated per row of the sampled coordinates; at
 most one body of a condition is moved, so the angles stay conditionally independent. Known
-added masses (``Condition(added_first_moment=, added_inertia=)``) add known ``a`` and ``I`` to
-their condition's totals (times the torque gain, like everything the torque channel sees).
+added masses (``Condition(added=)``: their :func:`inertiafit.physics.point_moments`) add known
+``a`` and ``I`` to their condition's totals (times the torque gain, like everything the torque
+channel sees).
 """
 
 from __future__ import annotations
@@ -73,6 +74,7 @@ from inertiafit.errors import InputError
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.io.manifest import MAX_TORQUE_GAIN_SD
+from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY, PARAMETERS
 
 __all__ = [
@@ -311,77 +313,101 @@ def draw_angles(first_moment, inertia, prior: Box, rng: np.random.Generator):
     return angles_at(a, b, prior, np.minimum(fraction, 1 - 1e-12)).reshape(shape)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Condition:
     """A set of bodies mounted together and the evidence measured on them.
 
+    What is mounted is a :class:`~inertiafit.mounting.Mounting`:
+    ``Condition(bodies, inertia, gravity_moment, label, coupling, offset_body=, offset=,
+    added=)`` builds it from its fields; ``Condition(mounting, ...)`` (or
+    ``mounting=``) takes one as it is. The mounting's fields (``bodies``, ``offset_body``,
+    ``offset``, ``added``) and its added masses' moments (``added_first_moment``,
+    ``added_inertia``) read through.
+
     Attributes
     ----------
-    bodies : tuple of str
-        Names of the mounted bodies; their ``I`` and ``M_g`` add up.
+    mounting : Mounting
+        What is mounted: bodies (their ``I`` and ``M_g`` add up), a body moved along the lever,
+        known added masses.
     inertia : Observation or None
         Evidence on the total inertia about the joint (kg m^2).
     gravity_moment : Observation or None
         Evidence on the total gravitational moment (N m).
     label : str
-        Defaults to the body names joined by ``+``.
+        Defaults to the mounting's :attr:`~inertiafit.mounting.Mounting.label` (the body
+        names joined by ``+`` when plain).
     coupling : float
         ``dI/dM_g`` of the shared gravity-model error (kg m^2 per N m): the inertia evidence
         is evaluated at ``I + coupling * (M_g_obs - M_g)``, ``M_g_obs`` the gravity moment's
         centre. 0 when the errors are independent.
-    offset_body, offset : str, float
-        A second mounting: body ``offset_body`` sits ``offset`` metres further out along the
-        lever than where its ``(m, x, rho)`` are defined (``x -> x + offset``), so it adds
-        ``a + m d`` and ``I + 2 a d + m d^2`` (:func:`inertiafit.physics.moved_moments`).
-        At most one body of a condition is moved; ``""`` for none.
-    added_first_moment, added_inertia : float
-        ``m x`` (kg m) and ``I`` (kg m^2) of known masses mounted with the bodies
-        (:func:`inertiafit.physics.point_moments`), added to the totals.
     """
 
-    bodies: tuple[str, ...]
-    inertia: Observation | None = None
-    gravity_moment: Observation | None = None
-    label: str = ""
-    coupling: float = 0.0
-    offset_body: str = ""
-    offset: float = 0.0
-    added_first_moment: float = 0.0
-    added_inertia: float = 0.0
+    mounting: Mounting
+    inertia: Observation | None
+    gravity_moment: Observation | None
+    label: str
+    coupling: float
 
-    def __post_init__(self):
-        if not self.label:
-            object.__setattr__(self, "label", "+".join(self.bodies))
+    def __init__(
+        self,
+        bodies: Sequence[str] | Mounting | None = None,
+        inertia: Observation | None = None,
+        gravity_moment: Observation | None = None,
+        label: str = "",
+        coupling: float = 0.0,
+        *,
+        offset_body: str = "",
+        offset: float = 0.0,
+        added: tuple[tuple[float, float, float], ...] = (),
+        mounting: Mounting | None = None,
+    ) -> None:
+        if mounting is None:
+            if isinstance(bodies, Mounting):
+                mounting = bodies
+            else:
+                mounting = Mounting(tuple(bodies or ()), offset_body, offset, added)
+        elif bodies is not None:
+            raise InputError("condition: give the bodies or a mounting, not both")
+        object.__setattr__(self, "mounting", mounting)
+        object.__setattr__(self, "inertia", inertia)
+        object.__setattr__(self, "gravity_moment", gravity_moment)
+        object.__setattr__(self, "label", label or mounting.label)
+        object.__setattr__(self, "coupling", coupling)
         where = f"condition '{self.label}'"
         if not math.isfinite(self.coupling):
             raise InputError(f"{where}: coupling must be finite")
         if self.coupling and self.gravity_moment is None:
             raise InputError(f"{where}: coupling needs a gravity moment")
-        if self.offset_body:
-            if self.offset_body not in self.bodies:
-                raise InputError(
-                    f"{where}: offset body '{self.offset_body}' is not mounted in it "
-                    f"(bodies: {', '.join(self.bodies)})"
-                )
-            if not (math.isfinite(self.offset) and self.offset != 0):
-                raise InputError(
-                    f"{where}: offset of '{self.offset_body}': expected a non-zero distance "
-                    f"in m, got {self.offset!r}"
-                )
-        elif self.offset:
-            raise InputError(f"{where}: an offset needs the body it moves (offset_body)")
-        if not math.isfinite(self.added_first_moment):
-            raise InputError(f"{where}: added_first_moment must be finite (kg m)")
-        if not (math.isfinite(self.added_inertia) and self.added_inertia >= 0):
-            raise InputError(
-                f"{where}: added_inertia: expected a finite value >= 0 (kg m^2), "
-                f"got {self.added_inertia!r}"
-            )
+
+    @property
+    def bodies(self) -> tuple[str, ...]:
+        """The mounted bodies."""
+        return self.mounting.bodies
+
+    @property
+    def offset_body(self) -> str:
+        """The body moved along the lever (``""``: none)."""
+        return self.mounting.offset_body
+
+    @property
+    def offset(self) -> float:
+        """How far it is moved (m)."""
+        return self.mounting.offset
+
+    @property
+    def added_first_moment(self) -> float:
+        """``m x`` of the known added masses (kg m)."""
+        return self.mounting.added_moments[0]
+
+    @property
+    def added_inertia(self) -> float:
+        """``I`` of the known added masses about the joint (kg m^2)."""
+        return self.mounting.added_moments[1]
 
     @property
     def has_added(self) -> bool:
         """Whether known masses are mounted with the bodies."""
-        return bool(self.added_first_moment or self.added_inertia)
+        return bool(self.mounting.added)
 
     def inertia_at(self, inertia, gravity_moment):
         """Where the inertia evidence is evaluated for true totals ``I`` and ``M_g`` (arrays)."""

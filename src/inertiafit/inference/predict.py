@@ -1,6 +1,6 @@
 """Posterior widths of a model without a sampler: importance sampling around its Laplace fit.
 
-Planning a session (:mod:`inertiafit.pipeline.plan`) asks how wide the posterior of each body's
+Planning a session (:mod:`inertiafit.planning`) asks how wide the posterior of each body's
 ``(m, x, rho, I, M_g)`` will be for a design, many designs at a time. The posterior of a model
 at its *expected* data (observations centred on the nominal truth with the design's standard
 errors) answers that; this module computes its SDs and HDI widths in a fraction of a second:

@@ -42,12 +42,13 @@ a lognormal prior per parameter from the published fractions (:mod:`.anthropomet
 
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import special
@@ -56,6 +57,9 @@ from inertiafit.errors import InputError
 from inertiafit.inference import anthropometric
 from inertiafit.io.units import si_factors
 from inertiafit.physics import PARAMETERS, UNITS
+
+if TYPE_CHECKING:
+    from inertiafit.posterior import Posterior
 
 __all__ = [
     "DEFAULT_SPREAD",
@@ -66,6 +70,7 @@ __all__ = [
     "available_priors",
     "load_prior",
     "parse_prior",
+    "priors_from_posterior",
 ]
 
 DEFAULT_SPREAD = 0.5
@@ -558,3 +563,26 @@ def load_prior(
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read prior file ({exc})") from None
     return parse_prior(table, name=name or path.stem, where=str(path), path=path)
+
+
+def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
+    """The priors stored in a posterior.
+
+    Boxes from ``constant_data``; each prior file's description, source, published
+    reference and the distributions of parameters that are not uniform from the ``priors``
+    attribute.
+    """
+    about = json.loads(post.attrs.get("priors", "{}") or "{}")
+    return {
+        body: Prior(
+            name=body,
+            nominal=post.prior_values(body, "nominal"),
+            lower=post.prior_values(body, "lower"),
+            upper=post.prior_values(body, "upper"),
+            description=str(about.get(body, {}).get("description", "")),
+            source=str(about.get(body, {}).get("source", "")),
+            reference=dict(about.get(body, {}).get("reference", {})),
+            distribution=dict(about.get(body, {}).get("distribution", {})),
+        )
+        for body in post.bodies
+    }

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from inertiafit import physics
-from inertiafit.inference.blocked import Star, star_structure
 from inertiafit.inference.model import angles_at, feasible_measure, log_identified_prior
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
+from inertiafit.inference.star import Star, star_structure
 from inertiafit.physics import GRAVITY
 
 __all__ = ["ReferencePosterior", "gain_reference", "reference_posterior", "star_reference"]
@@ -261,7 +261,7 @@ def star_reference(
 ) -> dict[str, ReferencePosterior]:
     """Exact posterior of a study of one shared body and leaves, by quadrature on grids.
 
-    The model's structure must be the one :func:`inertiafit.inference.blocked.star_structure` finds,
+    The model's structure must be the one :func:`inertiafit.inference.star.star_structure` finds,
     with exactly one shared body ``S`` (the attachment) measured alone, and each leaf ``k``
     measured once with ``S``. Each body gets a grid in its identified pair ``(a, b)``; with
     ``pi`` a body's prior density in ``(a, b)`` (``|Psi(a, b)| / a``, see

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from inertiafit.errors import ConvergenceWarning, InputError
-from inertiafit.inference.blocked import BlockedGibbs, Star, star_structure
+from inertiafit.inference.blocked import BlockedGibbs
 from inertiafit.inference.model import Model
 from inertiafit.inference.moves import (
     MOVES,
@@ -39,6 +39,7 @@ from inertiafit.inference.moves import (
     laplace_fit,
     proposal_df,
 )
+from inertiafit.inference.star import Star, star_structure
 
 __all__ = ["SAMPLERS", "SamplerRun", "SamplerSettings", "resolve_moves", "sample"]
 
@@ -69,7 +70,7 @@ class SamplerSettings:
         Steps dropped at the start, in units of ``tau``.
     moves : str
         ``"auto"`` (default): ``"blocked"`` for a model of two or more bodies that
-        :func:`inertiafit.inference.blocked.star_structure` decomposes (an attachment measured alone
+        :func:`inertiafit.inference.star.star_structure` decomposes (an attachment measured alone
         and with each segment), else ``"independent"``.
         ``"blocked"``: the two-block Gibbs sampler of :mod:`inertiafit.inference.blocked` (chains are
         independent, ``n_walkers`` of them; cost linear in the number of segments).

@@ -6,8 +6,9 @@
   ``angle`` rad, ``velocity`` rad/s, ``torque`` N m; attrs ``source``, ``sampling_rate``,
   ``format``).
 - :func:`load_study` parses a study manifest into a :class:`Study` of :class:`BodySpec` and
-  :class:`TrialSpec`, with its :class:`Calibration` and a :class:`ConditionSpec` per condition; :meth:`Study.read` reads one of its
-  trials.
+  :class:`TrialSpec`, with its :class:`Calibration` and a
+  :class:`~inertiafit.mounting.Mounting` per condition (:attr:`Study.mountings`);
+  :meth:`Study.read` reads one of its trials.
 
 Units are converted to SI once, here (:mod:`inertiafit.io.units`). The formats are described
 in ``docs/formats.md``.
@@ -18,7 +19,6 @@ from __future__ import annotations
 from inertiafit.io.manifest import (
     BodySpec,
     Calibration,
-    ConditionSpec,
     Study,
     TrialSpec,
     load_study,
@@ -34,7 +34,6 @@ __all__ = [
     "SI_UNITS",
     "BodySpec",
     "Calibration",
-    "ConditionSpec",
     "Study",
     "TrialSpec",
     "available_formats",

@@ -54,7 +54,8 @@ They become :attr:`BodySpec.measured` (value, SD in kg and m). A trial's ``offse
 body moved that far along the lever, m or ``{ value, unit }``) and ``added_mass`` (known masses:
 ``mass`` kg, ``com_distance`` m, optional ``radius_of_gyration`` m about their own centre of
 mass) are part of its condition: trials that differ in them are different conditions
-(:class:`ConditionSpec`, :attr:`Study.condition_specs`), labelled by :func:`condition_label`.
+(a :class:`~inertiafit.mounting.Mounting` each, :attr:`Study.mountings`), labelled by its
+:attr:`~inertiafit.mounting.Mounting.label`.
 """
 
 from __future__ import annotations
@@ -69,7 +70,6 @@ from typing import Any
 
 import xarray as xr
 
-from inertiafit import physics
 from inertiafit.errors import InputError
 from inertiafit.io.readers import (
     available_formats,
@@ -81,6 +81,7 @@ from inertiafit.io.readers import (
 )
 from inertiafit.io.trial import apply_torque_sign
 from inertiafit.io.units import unit_factor
+from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY
 
 __all__ = [
@@ -96,10 +97,8 @@ __all__ = [
     "TRIAL_KEYS",
     "BodySpec",
     "Calibration",
-    "ConditionSpec",
     "Study",
     "TrialSpec",
-    "condition_label",
     "file_sha256",
     "load_study",
     "read_trial_spec",
@@ -209,8 +208,10 @@ class TrialSpec:
     ----------
     file : Path
         Absolute path of the trial file (resolved relative to the manifest).
-    bodies : tuple of str
-        The mounted bodies, in the manifest's ``[bodies]`` order.
+    mounting : Mounting
+        What is mounted: the bodies (also :attr:`bodies`, in the manifest's ``[bodies]``
+        order), a body moved along the lever (``offset``) and known added masses
+        (``added_mass``, sorted).
     kind : {"quasi-static", "fast"}
         Slow passive move (gives ``M_g``) or fast isokinetic move (gives ``I``).
     speed : float or None
@@ -228,9 +229,8 @@ class TrialSpec:
         sign); ``"motion"`` signs a torque written as a magnitude by the direction of motion
         (fast trials; :func:`inertiafit.io.trial.apply_torque_sign`).
     condition : str
-        The condition's label: the mounted body names joined by ``"+"``, in ``[bodies]``
-        order, followed by the offset and the added masses when the trial has them
-        (:func:`condition_label`).
+        The condition's label: :attr:`Mounting.label <inertiafit.mounting.Mounting.label>`,
+        made unique in the study.
     options : dict
         Keyword options passed to the reader.
     index : int
@@ -239,16 +239,10 @@ class TrialSpec:
         The torque channel's lag (s) the manifest fixes for this trial: its own ``lag``, else
         ``[defaults] lag``, else a number in ``[calibration] lag``; ``None`` when the lag is
         to be estimated (fast trials).
-    offset_body, offset : str, float
-        A second mounting: body ``offset_body`` sits ``offset`` metres further out along the
-        lever than in its own mounting (``""`` and ``0.0`` for none).
-    added : tuple of (float, float, float)
-        Known masses mounted with the bodies: ``(mass, com_distance, radius_of_gyration)``
-        each, in kg, m, m, sorted.
     """
 
     file: Path
-    bodies: tuple[str, ...]
+    mounting: Mounting
     kind: str
     speed: float | None
     format: str
@@ -261,9 +255,11 @@ class TrialSpec:
     options: dict[str, Any] = field(default_factory=dict)
     index: int = 0
     lag: float | None = None
-    offset_body: str = ""
-    offset: float = 0.0
-    added: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def bodies(self) -> tuple[str, ...]:
+        """The mounted bodies, in the manifest's ``[bodies]`` order."""
+        return self.mounting.bodies
 
     def read(self) -> xr.Dataset:
         """Read this trial; see :func:`read_trial_spec`."""
@@ -284,80 +280,6 @@ class TrialSpec:
             "torque_sign": self.torque_sign,
             "window": list(self.window) if self.window is not None else None,
         }
-
-
-@dataclass(frozen=True)
-class ConditionSpec:
-    """What is mounted in one condition: bodies, a body moved along the lever, known masses.
-
-    Attributes
-    ----------
-    label : str
-        The condition's label (:func:`condition_label`), as in ``trials.csv``.
-    bodies : tuple of str
-        The mounted bodies, in ``[bodies]`` order.
-    offset_body, offset : str, float
-        Body moved ``offset`` metres further out along the lever (``""``, ``0.0``: none).
-    added : tuple of (float, float, float)
-        Known added masses ``(mass, com_distance, radius_of_gyration)`` in kg, m, m.
-    """
-
-    label: str
-    bodies: tuple[str, ...]
-    offset_body: str = ""
-    offset: float = 0.0
-    added: tuple[tuple[float, float, float], ...] = ()
-
-    @property
-    def added_moments(self) -> tuple[float, float]:
-        """``(m x, I)`` of the added masses together, kg m and kg m^2 (0 without any).
-
-        Each is a body of known mass, centre-of-mass distance and radius of gyration about its
-        own centre of mass (:func:`inertiafit.physics.point_moments`).
-        """
-        a = i = 0.0
-        for mass, distance, radius in self.added:
-            da, di = physics.point_moments(mass, distance, radius)
-            a, i = a + float(da), i + float(di)
-        return a, i
-
-    @property
-    def plain(self) -> bool:
-        """Whether the bodies are mounted as they are (no offset, no added mass)."""
-        return not self.offset_body and not self.added
-
-
-def _length_label(metres: float) -> str:
-    """A distance for a label: whole centimetres as ``5cm``, else millimetres (``12.5mm``)."""
-    cm = metres * 100.0
-    if abs(cm - round(cm)) < 1e-9:
-        return f"{round(cm)}cm"
-    return f"{metres * 1000.0:.6g}mm"
-
-
-def condition_label(
-    bodies: tuple[str, ...],
-    offset_body: str = "",
-    offset: float = 0.0,
-    added: tuple[tuple[float, float, float], ...] = (),
-) -> str:
-    """The readable label of a condition, safe in a file name.
-
-    The mounted bodies joined by ``+`` (``attachment+disk``, the label of every condition
-    without offset or added mass); a body moved along the lever appends ``@<body>+<d>``
-    (``attachment+disk@disk+5cm``; ``-`` for a negative offset); each added mass appends
-    ``+added<mass>kg@<distance>`` (``attachment+added0.5kg@30cm``). Distances are whole
-    centimetres or millimetres. :func:`load_study` makes labels unique (``_2``, ``_3``, ...
-    after a label already taken by another condition, e.g. masses that differ only in their
-    radius of gyration).
-    """
-    label = "+".join(bodies)
-    if offset_body:
-        sign = "-" if offset < 0 else "+"
-        label += f"@{offset_body}{sign}{_length_label(abs(offset))}"
-    for mass, distance, _radius in added:
-        label += f"+added{mass:.6g}kg@{'-' if distance < 0 else ''}{_length_label(abs(distance))}"
-    return label
 
 
 @dataclass(frozen=True)
@@ -406,14 +328,11 @@ class Study:
         return out
 
     @property
-    def condition_specs(self) -> dict[str, ConditionSpec]:
+    def mountings(self) -> dict[str, Mounting]:
         """Condition label -> what is mounted (bodies, offset, added masses), as ``conditions``."""
-        out: dict[str, ConditionSpec] = {}
+        out: dict[str, Mounting] = {}
         for t in self.trials:
-            if t.condition not in out:
-                out[t.condition] = ConditionSpec(
-                    t.condition, t.bodies, t.offset_body, t.offset, t.added
-                )
+            out.setdefault(t.condition, t.mounting)
         return out
 
     @property
@@ -928,16 +847,17 @@ def _added_masses(value: object, *, where: str) -> tuple[tuple[float, float, flo
 
 def _condition_key(trial: TrialSpec) -> tuple[Any, ...]:
     """What makes two trials the same condition (distances compared to the nanometre)."""
+    m = trial.mounting
     return (
-        trial.bodies,
-        trial.offset_body,
-        round(trial.offset, 9),
-        tuple(tuple(round(v, 9) for v in added) for added in trial.added),
+        m.bodies,
+        m.offset_body,
+        round(m.offset, 9),
+        tuple(tuple(round(v, 9) for v in added) for added in m.added),
     )
 
 
 def _label_conditions(trials: list[TrialSpec]) -> list[TrialSpec]:
-    """Give every trial its condition's unique label (:func:`condition_label`).
+    """Give every trial its condition's unique label (:attr:`Mounting.label`).
 
     A trial without offset or added mass keeps the label it has (its bodies joined by ``+``).
     """
@@ -947,7 +867,7 @@ def _label_conditions(trials: list[TrialSpec]) -> list[TrialSpec]:
         key = _condition_key(trial)
         if key in labels:
             continue
-        label = condition_label(trial.bodies, trial.offset_body, trial.offset, trial.added)
+        label = trial.mounting.label
         stem, n = label, 1
         while label in taken:
             n += 1
@@ -1037,7 +957,7 @@ def _trial(
             )
     return TrialSpec(
         file=file,
-        bodies=bodies,
+        mounting=Mounting(bodies, offset_body, offset, added),
         kind=kind,
         speed=speed,
         format=fmt,
@@ -1050,7 +970,4 @@ def _trial(
         options=merged["options"],
         index=i,
         lag=own.get("lag", defaults.get("lag")),
-        offset_body=offset_body,
-        offset=offset,
-        added=added,
     )

@@ -5,8 +5,8 @@
 - :mod:`~inertiafit.pipeline.redraw`: :func:`redraw` (``report``: from saved outputs);
 - :mod:`~inertiafit.pipeline.demo`: :func:`run_demo` (``demo``);
 - :mod:`~inertiafit.pipeline.batch`: :func:`run_many` (``run-many``: many studies, on Dask);
-- :mod:`~inertiafit.pipeline.plan`: :func:`plan` and :func:`run_plan` (``plan``: predicted
-  widths of candidate designs).
+- :mod:`~inertiafit.pipeline.plan`: :func:`run_plan` (``plan``: predicted widths of candidate
+  designs, from the planner of :mod:`inertiafit.planning`).
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ import pandas as pd
 
 from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
-from inertiafit.inference.priors import Prior
+from inertiafit.inference.priors import Prior, priors_from_posterior
 from inertiafit.io.outputs import replace_files
 from inertiafit.pipeline.fit import fit_result
 from inertiafit.pipeline.study import paper_baselines
@@ -27,30 +27,7 @@ from inertiafit.processing.study import TRACE_COLUMNS, TRIAL_COLUMNS, usable_tri
 from inertiafit.report.outputs import DATA_FILES, write_outputs
 from inertiafit.report.result import Result, make_result
 
-__all__ = ["LATER_TRIAL_COLUMNS", "load_result", "priors_from_posterior", "redraw"]
-
-
-def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
-    """The priors stored in a posterior.
-
-    Boxes from ``constant_data``; each prior file's description, source, published
-    reference and the distributions of parameters that are not uniform from the ``priors``
-    attribute.
-    """
-    about = json.loads(post.attrs.get("priors", "{}") or "{}")
-    return {
-        body: Prior(
-            name=body,
-            nominal=post.prior_values(body, "nominal"),
-            lower=post.prior_values(body, "lower"),
-            upper=post.prior_values(body, "upper"),
-            description=str(about.get(body, {}).get("description", "")),
-            source=str(about.get(body, {}).get("source", "")),
-            reference=dict(about.get(body, {}).get("reference", {})),
-            distribution=dict(about.get(body, {}).get("distribution", {})),
-        )
-        for body in post.bodies
-    }
+__all__ = ["LATER_TRIAL_COLUMNS", "load_result", "redraw"]
 
 
 #: Columns added to ``trials.csv`` later, with the value of a table written before them.

@@ -174,7 +174,7 @@ def analyse_study(
     notes = list(processed.warnings)
     # The paper's estimator knows bodies mounted as they are: a second mounting or added masses
     # would pass for the same set of bodies (and overwrite its means).
-    plain = {k: v.bodies for k, v in study.condition_specs.items() if v.plain}
+    plain = {k: v.bodies for k, v in study.mountings.items() if v.plain}
     baselines = paper_baselines(used, plain, priors, gravity=study.gravity, notes=notes)
     return make_result(
         name=study.name,

@@ -8,13 +8,13 @@ information of :mod:`inertiafit.io.manifest`, written into the manifest as a lab
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from inertiafit.physics import GRAVITY, point_moments
+from inertiafit.mounting import Mounting
+from inertiafit.physics import GRAVITY
 from inertiafit.simulate.files import VELOCITY_UNITS, check_units, toml_value, write_trial_csv
 from inertiafit.simulate.signals import Body, Motion, Noise, simulate_trial
 
@@ -31,52 +31,39 @@ def _condition_labels(n: int) -> list[str]:
     return [chr(ord("A") + i) if i < 26 else f"C{i}" for i in range(n)]
 
 
-@dataclass(frozen=True)
-class _Mounting:
-    """One simulated condition: its bodies, a body moved along the lever, added masses."""
+def _manifest_lines(mounting: Mounting) -> list[str]:
+    """``offset`` and ``added_mass`` of a ``[[trials]]`` entry (none for a plain one)."""
+    lines = []
+    if mounting.offset_body:
+        lines.append(f"offset = {toml_value({mounting.offset_body: mounting.offset})}")
+    if mounting.added:
+        added = [dict(zip(_ADDED_KEYS, mass, strict=True)) for mass in mounting.added]
+        lines.append(f"added_mass = {toml_value(added)}")
+    return lines
 
-    bodies: tuple[str, ...]
-    offset_body: str = ""
-    offset: float = 0.0
-    added: tuple[dict[str, float], ...] = ()
 
-    def mounted(self, truth: Mapping[str, Body]) -> list[Body]:
-        """The bodies as mounted: the moved one with its centre of mass ``offset`` further out."""
-        out = []
-        for b in self.bodies:
-            body = truth[b]
-            if b == self.offset_body:
-                body = Body(body.mass, body.radius_of_gyration, body.com_distance + self.offset)
-            out.append(body)
-        return out
-
-    def totals(self, truth: Mapping[str, Body], gravity: float) -> tuple[float, float]:
-        """The condition's true ``I`` (kg m^2) and ``M_g`` (N m), added masses included."""
-        mounted = self.mounted(truth)
-        i_total = sum(body.inertia for body in mounted)
-        mg_total = sum(body.gravity_moment(gravity) for body in mounted)
-        for mass in self.added:  # only when there are any: plain studies keep their bytes
-            a, i = point_moments(mass["mass"], mass["com_distance"], mass["radius_of_gyration"])
-            i_total += float(i)
-            mg_total += float(a) * gravity
-        return i_total, mg_total
-
-    def manifest_lines(self) -> list[str]:
-        """``offset`` and ``added_mass`` of a ``[[trials]]`` entry (none for a plain one)."""
-        lines = []
-        if self.offset_body:
-            lines.append(f"offset = {toml_value({self.offset_body: self.offset})}")
-        if self.added:
-            lines.append(f"added_mass = {toml_value(list(self.added))}")
-        return lines
+def _totals(mounting: Mounting, truth: Mapping[str, Body], gravity: float) -> tuple[float, float]:
+    """The condition's true ``I`` (kg m^2) and ``M_g`` (N m), moved body and added masses included."""
+    values = {
+        b: {
+            "mass": body.mass,
+            "inertia": body.inertia,
+            "gravity_moment": body.gravity_moment(gravity),
+        }
+        for b, body in truth.items()
+    }
+    inertia, moment = mounting.totals(values, gravity)
+    return float(inertia), float(moment)
 
 
 def _mounting(
-    condition: Sequence[str] | Mapping[str, Any], truth: Mapping[str, Body]
-) -> _Mounting:
-    """Check one entry of ``conditions``: a sequence of body names or a mapping."""
-    if not isinstance(condition, Mapping):
-        mounting = _Mounting(tuple(condition))
+    condition: Sequence[str] | Mapping[str, Any] | Mounting, truth: Mapping[str, Body]
+) -> Mounting:
+    """Check one entry of ``conditions``: a Mounting, a sequence of body names or a mapping."""
+    if isinstance(condition, Mounting):
+        mounting = condition
+    elif not isinstance(condition, Mapping):
+        mounting = Mounting(tuple(condition))
     else:
         unknown = [k for k in condition if k not in _CONDITION_KEYS]
         if unknown or "bodies" not in condition:
@@ -103,13 +90,13 @@ def _mounting(
                 msg = f"condition {bodies}: added mass {dict(mass)!r}: keys {_ADDED_KEYS}"
                 raise ValueError(msg)
             added.append(
-                {
-                    "mass": float(mass["mass"]),
-                    "com_distance": float(mass["com_distance"]),
-                    "radius_of_gyration": float(mass.get("radius_of_gyration", 0.0)),
-                }
+                (
+                    float(mass["mass"]),
+                    float(mass["com_distance"]),
+                    float(mass.get("radius_of_gyration", 0.0)),
+                )
             )
-        mounting = _Mounting(bodies, str(offset_body), float(d), tuple(added))
+        mounting = Mounting(bodies, str(offset_body), float(d), tuple(added))
     for b in mounting.bodies:
         if b not in truth:
             msg = f"condition {mounting.bodies} names unknown body {b!r}"
@@ -155,7 +142,7 @@ def simulate_study(
     out_dir: str | Path,
     *,
     bodies: Mapping[str, Sequence[float]],
-    conditions: Sequence[Sequence[str] | Mapping[str, Any]],
+    conditions: Sequence[Sequence[str] | Mapping[str, Any] | Mounting],
     speeds: Sequence[float] = (240.0, 270.0, 300.0),
     trials_per_speed: int = 10,
     seed: int | None = 0,
@@ -190,7 +177,7 @@ def simulate_study(
         Folder to write into (created; files of the same names are replaced).
     bodies : mapping of str to (mass, radius_of_gyration, com_distance)
         True parameters of each body (kg, m, m).
-    conditions : sequence of (sequence of str or mapping)
+    conditions : sequence of (sequence of str, mapping or Mounting)
         The bodies mounted in each condition, e.g. ``[("attachment",), ("attachment",
         "weight")]``; conditions are labelled A, B, ... in file names. A mapping
         ``{"bodies": (...), "offset": {"weight": 0.05}, "added_mass": [{"mass": 0.5,
@@ -198,7 +185,7 @@ def simulate_study(
         body's centre of mass ``d`` metres further out along the lever) and/or known added
         masses (``radius_of_gyration`` optional, default 0); the trials see the moved body and
         the added masses, and the manifest's ``[[trials]]`` carry ``offset`` and
-        ``added_mass``.
+        ``added_mass``. A :class:`~inertiafit.mounting.Mounting` says the same.
     speeds : sequence of float
         Preset speeds of the fast trials (deg/s).
     trials_per_speed : int
@@ -293,7 +280,7 @@ def simulate_study(
     ]
 
     for label, mounting, cseed in zip(labels, mountings, condition_seeds, strict=True):
-        i_total, mg_total = mounting.totals(truth, gravity)
+        i_total, mg_total = _totals(mounting, truth, gravity)
         plan = [("quasi-static", quasi_static_speed, f"{label}_quasistatic.csv")]
         plan += [
             ("fast", float(speed), f"{label}_{speed:g}_{k + 1:02d}.csv")
@@ -332,7 +319,7 @@ def simulate_study(
             ]
             if kind == "fast":
                 lines.append(f"speed = {toml_value(speed)}")
-            lines += mounting.manifest_lines()
+            lines += _manifest_lines(mounting)
             lines.append("")
 
     manifest = out / "study.toml"
@@ -346,7 +333,7 @@ def simulate_study(
 def _write_truth(
     path: Path,
     truth: Mapping[str, Body],
-    conditions: Sequence[_Mounting],
+    conditions: Sequence[Mounting],
     labels: Sequence[str],
     gravity: float,
     phi: float,
@@ -379,11 +366,11 @@ def _write_truth(
             "",
         ]
     for label, mounting in zip(labels, conditions, strict=True):
-        i_total, mg_total = mounting.totals(truth, gravity)
+        i_total, mg_total = _totals(mounting, truth, gravity)
         lines += [
             f"[conditions.{label}]",
             f"bodies = {toml_value(list(mounting.bodies))}",
-            *mounting.manifest_lines(),
+            *_manifest_lines(mounting),
             f"inertia = {i_total!r}",
             f"gravity_moment = {mg_total!r}",
             "",

@@ -61,7 +61,6 @@ import warnings
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -73,6 +72,7 @@ from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior, anthropometric_prior
 from inertiafit.inference.sampler import SamplerSettings
+from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY, REPORTED
 
 __all__ = [
@@ -80,13 +80,11 @@ __all__ = [
     "EXTRA_KINDS",
     "SBC_SETTINGS",
     "Design",
-    "Mounting",
     "SBCResult",
     "Simulation",
     "attachment_design",
     "calibrated",
     "calibration_table",
-    "condition_totals",
     "draw_truth_and_data",
     "extra_design",
     "hdi_contains",
@@ -115,56 +113,6 @@ SBC_SETTINGS = SamplerSettings(
 
 
 @dataclass(frozen=True)
-class Mounting:
-    """A condition with a moved body or known added masses (:class:`Condition`'s fields).
-
-    ``offset`` must be positive (the simulated values then stay above the noise floor of the
-    bodies' unmoved totals).
-    """
-
-    bodies: tuple[str, ...]
-    offset_body: str = ""
-    offset: float = 0.0
-    added_first_moment: float = 0.0
-    added_inertia: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.offset_body and not self.offset > 0:
-            raise InputError(f"mounting offset: expected a positive distance, got {self.offset}")
-
-    @property
-    def label(self) -> str:
-        """``a+b``, with ``@body+d`` for a moved body and ``+added`` for added masses."""
-        label = "+".join(self.bodies)
-        if self.offset_body:
-            label += f"@{self.offset_body}+{self.offset:g}"
-        if self.added_first_moment or self.added_inertia:
-            label += "+added"
-        return label
-
-
-def condition_totals(
-    cond: Condition | Mounting, values: Mapping[str, Mapping[str, object]], gravity: float
-) -> dict[str, object]:
-    """True ``inertia`` and ``gravity_moment`` of a condition from its bodies' quantities.
-
-    ``values[body]`` holds ``mass``, ``inertia`` and ``gravity_moment`` (floats or arrays of
-    one shape); a moved body adds ``m d`` and ``2 a d + m d^2``, added masses their ``a``, ``I``.
-    """
-    a: Any = sum(np.asarray(values[b]["gravity_moment"], float) for b in cond.bodies) / gravity
-    b: Any = sum(np.asarray(values[k]["inertia"], float) for k in cond.bodies)
-    if cond.offset_body:
-        own = values[cond.offset_body]
-        m_k = np.asarray(own["mass"], float)
-        a_k = np.asarray(own["gravity_moment"], float) / gravity
-        d = cond.offset
-        a, b = a + m_k * d, b + 2 * a_k * d + m_k * d * d
-    a = a + cond.added_first_moment
-    b = b + cond.added_inertia
-    return {"inertia": b, "gravity_moment": gravity * a}
-
-
-@dataclass(frozen=True)
 class Design:
     """What is simulated: the bodies' prior boxes, the conditions, the kind of evidence.
 
@@ -172,8 +120,10 @@ class Design:
     ----------
     priors : mapping of str to Prior
         The boxes truths are drawn from (uniformly in ``m``, ``x``, ``rho``).
-    conditions : tuple of tuple of str
-        The bodies mounted together in each condition; each has both observables.
+    conditions : tuple of (tuple of str or Mounting)
+        The bodies mounted together in each condition (a :class:`~inertiafit.mounting.Mounting`
+        for a moved body, at a positive offset, or known added masses); each has both
+        observables.
     evidence : str
         ``"values"`` (``n_trials`` trial values), ``"mean_sd"`` (their mean, SD and ``n``) or
         ``"mean_se"`` (one value with a known standard error), for both observables.
@@ -229,6 +179,10 @@ class Design:
             raise InputError("shared, coupling: need evidence 'mean_se' (a Gaussian M_g)")
         if not (0 <= self.torque_gain_sd < 0.5 and self.shared >= 0):
             raise InputError("torque_gain_sd: expected [0, 0.5); shared: expected >= 0")
+        for m in self.mountings():
+            # a positive offset keeps the simulated values above the unmoved totals' noise floor
+            if m.offset_body and not m.offset > 0:
+                raise InputError(f"mounting offset: expected a positive distance, got {m.offset}")
 
     @property
     def label(self) -> str:
@@ -245,7 +199,7 @@ class Design:
             extra += ", measured " + "+".join(kinds)
         if any(isinstance(c, Mounting) and c.offset_body for c in self.conditions):
             extra += ", second mounting"
-        if any(isinstance(c, Mounting) and c.added_inertia for c in self.conditions):
+        if any(isinstance(c, Mounting) and c.added for c in self.conditions):
             extra += ", added mass"
         return f"{shape}, {self.evidence}{extra}"
 
@@ -321,10 +275,9 @@ def extra_design(kind: str, *, seed: int = 0, **kwargs) -> Design:
     kwargs.setdefault("evidence", "mean_se")
     evidence = kwargs.pop("evidence")
     base = attachment_design(1, evidence, seed=seed, **kwargs)
-    a_add, b_add = (float(v) for v in physics.point_moments(0.5, 0.3, 0.0))
     plain: tuple[tuple[str, ...] | Mounting, ...] = (("attachment",), ("attachment", "seg01"))
     moved = Mounting(("attachment",), "attachment", 0.1)
-    added = Mounting(("attachment", "seg01"), added_first_moment=a_add, added_inertia=b_add)
+    added = Mounting(("attachment", "seg01"), added=((0.5, 0.3, 0.0),))
     if kind == "second mounting":
         return dataclasses.replace(base, conditions=(*plain, moved))
     if kind == "weighed mass":
@@ -388,15 +341,11 @@ class Simulation:
 
         conditions = [
             Condition(
-                c.bodies,
+                c.mounting,
                 scaled(c.inertia),
                 scaled(c.gravity_moment),
                 c.label,
                 c.coupling if systematics else 0.0,
-                offset_body=c.offset_body,
-                offset=c.offset,
-                added_first_moment=c.added_first_moment,
-                added_inertia=c.added_inertia,
             )
             for c in self.conditions
         ]
@@ -432,7 +381,7 @@ def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
     for mounting in design.mountings():
         bodies = mounting.bodies
         label = mounting.label
-        totals = condition_totals(mounting, truth, g)
+        totals = dict(zip(OBSERVABLES, mounting.totals(truth, g), strict=True))
         obs = {}
         error_g = 0.0
         # coupled: the gravity moment first, the inertia's error follows it
@@ -462,17 +411,7 @@ def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
             if design.evidence != "mean_se":
                 ranges[(label, name)] = (lo, hi)
         conditions.append(
-            Condition(
-                tuple(bodies),
-                obs["inertia"],
-                obs["gravity_moment"],
-                label,
-                design.coupling,
-                offset_body=mounting.offset_body,
-                offset=mounting.offset,
-                added_first_moment=mounting.added_first_moment,
-                added_inertia=mounting.added_inertia,
-            )
+            Condition(mounting, obs["inertia"], obs["gravity_moment"], label, design.coupling)
         )
     measured: dict[str, dict[str, Observation]] = {}
     for body, table in design.measured.items():
@@ -503,7 +442,8 @@ def truncation_log_weights(
             lo, hi = sim.noise_ranges[(cond.label, name)]
             obs: Observation = getattr(cond, name)
             n = obs.n
-            mu = np.asarray(condition_totals(cond, draws, sim.design.gravity)[name])
+            totals = cond.mounting.totals(draws, sim.design.gravity)
+            mu = np.asarray(totals[OBSERVABLES.index(name)])
             if "calibration" in draws:  # the observations are of the gain times the truth
                 mu = mu * np.asarray(draws["calibration"]["torque_gain"])
             sd2 = n * obs.scale**2  # s^2
