@@ -189,6 +189,13 @@ BAD_FILES = [
         ),
         "unknown body 'b'",
     ),
+    (
+        (
+            "[bodies.a]\nmass = 1\ncom_distance = 0.1\nradius_of_gyration = 0.05\n"
+            '[[designs]]\nconditions = [["a", "a"]]\n'
+        ),
+        "designs[0].conditions[0]: condition 'a+a': bodies: a body is listed twice: a",
+    ),
     ("[bodies.a\n", "not valid TOML"),
 ]
 
@@ -381,3 +388,14 @@ def test_plan_from_a_pilot_reads_its_noise_and_predicts_its_own_widths(tmp_path)
         t["pilot, attachment weighed", "attachment", "mass"]
         < 0.1 * t["pilot", "attachment", "mass"]
     )
+
+
+def test_a_body_mounted_twice_is_refused_everywhere_a_mounting_is_made():
+    # The planner took ["a", "a"] and predicted a mass interval 10x too narrow; a Mounting is
+    # the one home of a condition's bodies, so the manifest, planner and simulator all refuse it.
+    from inertiafit.mounting import Mounting
+
+    with pytest.raises(
+        InputError, match=r"^condition 'a\+b\+a': bodies: a body is listed twice: a$"
+    ):
+        Mounting(("a", "b", "a"))

@@ -64,6 +64,9 @@ class Mounting:
         where = f"condition '{'+'.join(map(str, bodies))}'"
         if not bodies or not all(isinstance(b, str) and b != "" for b in bodies):
             raise InputError(f"{where}: bodies: expected one or more body names, got {bodies!r}")
+        twice = sorted({b for b in bodies if bodies.count(b) > 1})
+        if twice:  # one body cannot be mounted twice: its mass would count twice
+            raise InputError(f"{where}: bodies: a body is listed twice: {', '.join(twice)}")
         if self.offset_body:
             if self.offset_body not in bodies:
                 raise InputError(

@@ -55,7 +55,7 @@ def _mountings(value: Any, where: str) -> tuple[Mounting, ...]:
     for i, item in enumerate(value):
         here = f"{where}[{i}]"
         if isinstance(item, list) and item and all(isinstance(b, str) for b in item):
-            out.append(Mounting(tuple(item)))
+            out.append(_mounting(here, tuple(item)))
             continue
         table = _table(item, here, {"bodies", "offset"})
         bodies = table.get("bodies")
@@ -72,10 +72,18 @@ def _mountings(value: Any, where: str) -> tuple[Mounting, ...]:
                     f"{here}.offset: expected a mounted body and a non-zero distance in m, "
                     f"got {offset!r}"
                 )
-            out.append(Mounting(tuple(bodies), str(body), float(d)))
+            out.append(_mounting(here, tuple(bodies), str(body), float(d)))
         else:
-            out.append(Mounting(tuple(bodies)))
+            out.append(_mounting(here, tuple(bodies)))
     return tuple(out)
+
+
+def _mounting(where: str, *args: Any) -> Mounting:
+    """A :class:`Mounting`, its refusal (a body listed twice, ...) naming the file and entry."""
+    try:
+        return Mounting(*args)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
 
 
 def _design(spec: Mapping[str, Any], defaults: Mapping[str, Any], where: str) -> Design:
