@@ -40,6 +40,7 @@ from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.predict import DRAWS, posterior_widths
 from inertiafit.inference.priors import Prior, load_prior
+from inertiafit.io.outputs import check_out, guard_outputs
 from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED, moved_moments
 
 __all__ = [
@@ -929,6 +930,7 @@ def pilot_inputs(folder: str | Path) -> dict[str, Any]:
     }
 
 
+@guard_outputs
 def run_plan(
     design_file: str | Path | None = None,
     *,
@@ -957,6 +959,7 @@ def run_plan(
 
     if (design_file is None) == (pilot is None):
         raise InputError("plan: give a design file or a pilot folder (one of them)")
+    check_out(out, inputs=[design_file, pilot])
     if design_file is not None:
         kwargs = load_plan_file(design_file)
         if trials_per_speed or weigh or offsets:
