@@ -164,6 +164,12 @@ def _a_study_subfolder_the_user_put_in_an_earlier_output(tmp):
     return [*FIT, "--out", str(r)], None
 
 
+def _a_file_the_user_put_in_a_subfolder_of_an_earlier_output(tmp):
+    r = earlier(tmp / "R", DEMO_OUTPUTS)
+    (r / "study" / "data" / "A_270_01.csv").write_text("time,angle\n")
+    return [*FIT, "--out", str(r)], None
+
+
 def _an_output_the_user_edited(tmp):
     r = earlier(tmp / "R")
     with (r / "summary.csv").open("a") as fh:
@@ -223,7 +229,11 @@ CATALOGUE = [
     (_a_note_of_the_users_in_an_earlier_output, "holds note.txt, which inertiafit did not write"),
     (
         _a_study_subfolder_the_user_put_in_an_earlier_output,
-        "holds study/study.toml, which inertiafit did not write",
+        "holds study/, which inertiafit did not write",
+    ),
+    (
+        _a_file_the_user_put_in_a_subfolder_of_an_earlier_output,
+        "holds study/data/A_270_01.csv, which inertiafit did not write",
     ),
     (_an_output_the_user_edited, "summary.csv has changed since inertiafit wrote it"),
     (_an_output_folder_of_an_older_inertiafit, "older inertiafit that did not list its files"),
@@ -443,6 +453,25 @@ def test_a_failure_at_any_step_leaves_one_whole_folder(
         assert err == ""
     if error is not None:
         assert "is unchanged and the new outputs were discarded" in error
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root removes anything")
+def test_a_read_only_subfolder_of_the_old_outputs_is_left_aside_with_a_warning(tmp_path, capsys):
+    out = tmp_path / "out"
+    _write(out, OLD)
+    (out / "sub").chmod(0o555)
+    try:
+        _write(out, NEW)
+        aside = [p for p in tmp_path.iterdir() if p.name.startswith(".out.old-")]
+        assert len(aside) == 1
+        assert (aside[0] / "sub" / "x.csv").exists()
+    finally:
+        for p in tmp_path.glob(".out.old-*/sub"):
+            p.chmod(0o755)
+    assert _contents(out) == NEW
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1
+    assert f"moved aside to {aside[0]} could not all be removed" in lines[0]
 
 
 def test_new_folder_and_its_way_back_both_failing_names_where_the_old_one_is(

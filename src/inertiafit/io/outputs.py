@@ -144,9 +144,13 @@ def check_replaceable(out: str | Path) -> None:
         )
     for entry, size in sorted(present.items()):
         if entry not in listed:
+            parts = entry.split("/")
+            tops = ["/".join(parts[:i]) + "/" for i in range(1, len(parts))]
+            # a whole folder of someone else's is named as such
+            foreign = [t for t in tops if not any(name.startswith(t) for name in listed)]
             raise InputError(
-                f"out: folder {out} holds {entry}, which inertiafit did not write; "
-                "move it out of the folder or choose a new folder"
+                f"out: folder {out} holds {(foreign or [entry])[0]}, which inertiafit did not "
+                "write; move it out of the folder or choose a new folder"
             )
         if listed[entry] != size:
             raise InputError(
