@@ -296,13 +296,18 @@ def test_a_parent_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, caps
 
 
 def test_out_is_checked_before_any_work(tmp_path, capsys):
-    # a prior that does not exist would be the error if anything ran before the check
-    (tmp_path / "note.txt").write_text("mine")
-    t0 = time.perf_counter()
-    argv = ["fit", "--prior", str(tmp_path / "missing.toml"), *FIT[3:], "--out", str(tmp_path)]
+    # the prior file is missing: had anything run before the check, that would be the error
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "note.txt").write_text("mine")
+    argv = ["fit", "--prior", str(tmp_path / "missing.toml"), *FIT[3:], "--out", str(out)]
     assert main(argv) == 2
-    assert time.perf_counter() - t0 < 2.0
-    assert "--out" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert err.startswith(f"inertiafit: error: --out: folder {out} exists, is not empty and was")
+    # and a prior file inside --out is an input it may not hold
+    argv = ["fit", "--prior", str(out / "my-prior.toml"), *FIT[3:], "--out", str(out)]
+    assert main(argv) == 2
+    assert f"--out: {out} holds the input {out / 'my-prior.toml'}" in capsys.readouterr().err
 
 
 # -- the marker ------------------------------------------------------------------------------
