@@ -704,3 +704,17 @@ def test_report_replaces_the_set_whole_and_keeps_what_is_not_its_own(
     capsys.readouterr()
     assert main([*FIT, "--out", str(r)]) == 2
     assert "holds note.txt" in capsys.readouterr().err
+
+
+def test_report_does_not_overwrite_a_file_of_yours_of_the_same_name(tmp_path, fake_redraw, capsys):
+    r = earlier(tmp_path / "R", {**FIT_OUTPUTS, "comparison.csv": "hdi_prob\n0.95\n"})
+    (r / "summary.csv").write_text("my own summary, edited")
+    before = snapshot(tmp_path)
+    assert main(["report", str(r), "--hdi-prob", "0.9"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0] == (
+        f"inertiafit: error: {r}: summary.csv was not written by inertiafit, or has changed "
+        "since, and would be overwritten; move it out of the folder"
+    )
+    assert snapshot(tmp_path) == before

@@ -569,7 +569,8 @@ def replace_files(folder: str | Path) -> Iterator[Path]:
     folder, a writable parent, one run at a time) but may hold anything: it is copied whole
     beside itself, the new files replace their namesakes in the copy, and the copy replaces
     ``folder`` by the swap of :func:`output_folder`. On error nothing in ``folder`` changes.
-    Its marker, if it lists files, then lists the new ones too (and nothing else new).
+    Its marker, if it lists files, then lists the new ones too (and nothing else new); a new
+    file whose namesake is not listed, or has changed since it was written, is refused.
     """
     target = _resolve(folder, "")
     if not target.is_dir():
@@ -594,6 +595,15 @@ def replace_files(folder: str | Path) -> Iterator[Path]:
                     f"{folder}: could not copy the folder to redraw it whole "
                     f"({str(exc).splitlines()[0][:200]}); nothing changed"
                 ) from None
+            listed = _read_marker(whole)
+            if listed is not None:  # a listing to tell inertiafit's files from others'
+                have = _listing(whole)
+                for name in sorted(drawn):
+                    if name in have and listed.get(name, -1) != have[name]:
+                        raise InputError(
+                            f"{folder}: {name} was not written by inertiafit, or has changed "
+                            "since, and would be overwritten; move it out of the folder"
+                        )
             try:
                 for path in sorted(tmp.iterdir()):
                     dest = whole / path.name
@@ -605,7 +615,6 @@ def replace_files(folder: str | Path) -> Iterator[Path]:
                     f"{folder}: could not place the redrawn file {exc.filename} "
                     f"({exc.strerror}); nothing changed"
                 ) from None
-            listed = _read_marker(whole)
             if listed is not None:  # still only inertiafit's files listed
                 now = _listing(whole)
                 _write_marker(whole, {k: v for k, v in listed.items() if k in now} | drawn)
