@@ -345,7 +345,7 @@ def test_out_that_may_not_be_replaced_is_refused(studies, tmp_path, capsys):
     manifest = old / "study.toml"
     manifest.write_text(Path(studies[0]).read_text())
     assert main(["run-many", str(manifest), "--out", str(old)]) == 2
-    assert f"holds the manifest {manifest}" in capsys.readouterr().err
+    assert f"holds the input {manifest} of this run" in capsys.readouterr().err
     assert manifest.is_file()
 
 

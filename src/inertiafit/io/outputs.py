@@ -1,75 +1,628 @@
-"""Writing outputs: a folder replaced whole, files replaced together, CSV in one format.
+"""Writing outputs: the output folder checked, claimed and replaced whole; CSV in one format.
 
-Nothing partial is left behind on failure, and an existing folder is replaced only when it is
-one that inertiafit wrote (it holds the marker file), so a mistyped ``--out`` cannot wipe a
-folder of someone's data. Both writers stage everything in a temporary sibling first.
+The rules of an output folder (``--out``), which every command that writes one follows:
+
+- **Checked before any work** (:func:`check_out`): ``out`` may not be a file, the current
+  folder or one of its ancestors, or a folder holding an input of the run (manifest, trial
+  files, pilot folder, prior or design file); its parent must be writable. A symlink is
+  followed: its target is checked and replaced, and the link is kept.
+- **Only inertiafit's own outputs are ever replaced** (:func:`check_replaceable`): an existing
+  folder is replaced only when it is empty, or when every entry in it is listed, with its size,
+  in its marker file :data:`MARKER`, which inertiafit writes into every output folder. A file
+  someone added or changed, or a folder of an older inertiafit whose marker lists nothing, is
+  refused with one line naming it.
+- **One run at a time per folder**: the check claims ``out`` with a lock file beside it,
+  ``.<name>.lock``, holding the process id and host of the run; another run is refused while
+  it is held. A lock left by a process that has died on this host is taken over. The claim is
+  released when the output is written, or when the command decorated with
+  :func:`guard_outputs` ends.
+- **Replacing is a swap** (:func:`output_folder`): everything is written into a staging folder
+  beside ``out``; then the old folder is renamed aside, the staging folder renamed to ``out``
+  and the old folder removed last. A failure at any step leaves one whole folder, old or new,
+  at ``out``; an old folder that cannot be removed afterwards (a read-only subfolder) is left
+  aside with a one-line warning, and the new outputs stay.
+- **Nothing partial is left behind**: a staging folder is removed on any error, on Ctrl-C and
+  on SIGTERM (which ends the command as an error does while it runs).
+
+:func:`replace_files` (``inertiafit report``) redraws files of an existing folder with the same
+swap: the folder is copied, the new files replace their namesakes in the copy, and the copy
+replaces the folder whole, so a failure half-way leaves the old complete set.
 """
 
 from __future__ import annotations
 
+import atexit
+import functools
+import json
+import os
+import secrets
 import shutil
+import signal
+import socket
+import sys
 import tempfile
-from collections.abc import Iterator
+import threading
+import time
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
 
 from inertiafit.errors import InputError
 
-__all__ = ["MARKER", "check_replaceable", "output_folder", "replace_files", "write_csv"]
+__all__ = [
+    "MARKER",
+    "check_out",
+    "check_replaceable",
+    "guard_outputs",
+    "output_folder",
+    "replace_files",
+    "write_csv",
+]
 
+#: Name of the marker file of an output folder: a JSON object whose ``files`` lists every
+#: entry inertiafit wrote (relative POSIX paths; a file with its size in bytes, an empty
+#: folder as ``"name/"`` with ``null``).
 MARKER = ".inertiafit-output"
+_ABOUT = "written by inertiafit; replaced whole on rerun while it holds only the files listed"
+#: Longest folder name allowed: the staging, aside and lock names add up to 26 bytes to it.
+_MAX_NAME = 255 - 32
 
 
-def check_replaceable(out: Path) -> None:
-    """Refuse an ``out`` that is a file, or a non-empty folder inertiafit did not write."""
-    if out.exists():
-        if not out.is_dir():
-            raise InputError(f"out: {out} exists and is not a folder")
-        if any(out.iterdir()) and not (out / MARKER).exists():
+# -- the marker ------------------------------------------------------------------------------
+
+
+def _listing(folder: Path) -> dict[str, int | None]:
+    """Every entry of ``folder`` but the marker: files (and symlinks) with sizes, empty folders."""
+
+    def fail(err: OSError) -> None:
+        raise InputError(f"out: cannot read {err.filename} ({err.strerror})")
+
+    entries: dict[str, int | None] = {}
+    for root, dirs, files in os.walk(folder, onerror=fail):
+        here = Path(root)
+        rel = here.relative_to(folder)
+        for name in list(dirs):
+            if (here / name).is_symlink():  # listed as a file, never followed
+                dirs.remove(name)
+                files.append(name)
+        for name in files:
+            entries[(rel / name).as_posix()] = (here / name).lstat().st_size
+        if not dirs and not files and rel != Path("."):
+            entries[rel.as_posix() + "/"] = None
+    entries.pop(MARKER, None)
+    return entries
+
+
+def _read_marker(folder: Path) -> dict[str, int | None] | None:
+    """The entries a marker lists; ``None`` for a marker that lists none (an older one)."""
+    try:
+        doc = json.loads((folder / MARKER).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+    files = doc.get("files") if isinstance(doc, dict) else None
+    return dict(files) if isinstance(files, dict) else None
+
+
+def _write_marker(folder: Path, files: dict[str, int | None]) -> None:
+    doc = {"about": _ABOUT, "files": dict(sorted(files.items()))}
+    (folder / MARKER).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+
+
+def check_replaceable(out: str | Path) -> None:
+    """Refuse an ``out`` that is a file, or a folder holding anything inertiafit did not write.
+
+    A folder may be replaced when it does not exist, is empty, or every entry in it is listed,
+    with its present size, in its marker :data:`MARKER`. A folder whose marker lists nothing
+    (written by an older inertiafit) is refused: what else it holds cannot be told.
+
+    Raises
+    ------
+    InputError
+        One line naming the folder and the first entry at fault.
+    """
+    out = Path(out)
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise InputError(f"out: {out} exists and is not a folder")
+    present = _listing(out)
+    if not present:
+        return
+    if not (out / MARKER).exists():
+        raise InputError(
+            f"out: folder {out} exists, is not empty and was not written by inertiafit; "
+            "choose a new folder"
+        )
+    listed = _read_marker(out)
+    if listed is None:
+        raise InputError(
+            f"out: folder {out} was written by an older inertiafit that did not list its files, "
+            "so it may hold files of yours; delete it yourself or choose a new folder"
+        )
+    for entry, size in sorted(present.items()):
+        if entry not in listed:
+            parts = entry.split("/")
+            tops = ["/".join(parts[:i]) + "/" for i in range(1, len(parts))]
+            # a whole folder of someone else's is named as such
+            foreign = [t for t in tops if not any(name.startswith(t) for name in listed)]
             raise InputError(
-                f"out: folder {out} exists, is not empty and was not written by inertiafit; "
-                "choose a new folder"
+                f"out: folder {out} holds {(foreign or [entry])[0]}, which inertiafit did not "
+                "write; move it out of the folder or choose a new folder"
             )
+        if listed[entry] != size:
+            raise InputError(
+                f"out: {out / entry} has changed since inertiafit wrote it; "
+                "move it out of the folder or choose a new folder"
+            )
+
+
+# -- checks before any work, and the lock ----------------------------------------------------
+
+
+@dataclass
+class _Claim:
+    """A folder this process has claimed: its lock file and the parents made for it."""
+
+    lock: Path
+    token: str
+    made: list[Path] = field(default_factory=list)
+    writing: bool = False
+
+
+#: Folders claimed by this process (resolved path -> claim).
+_CLAIMS: dict[Path, _Claim] = {}
+
+
+def _resolve(out: str | Path, label: str = "out: ") -> Path:
+    text = os.fspath(out)
+    if "\0" in text:
+        raise InputError(f"{label}the path holds a NUL character; expected a folder path")
+    try:
+        target = Path(text).expanduser().resolve()
+    except (OSError, RuntimeError) as exc:
+        raise InputError(f"{label}{text}: cannot follow the path ({exc})") from None
+    size = len(os.fsencode(target.name))
+    if size > _MAX_NAME:
+        raise InputError(
+            f"{label}folder name too long ({size} bytes; expected at most {_MAX_NAME})"
+        )
+    if target.is_symlink():  # resolve() stops at a loop
+        raise InputError(
+            f"{label}{text} is a symlink that leads nowhere (a loop); expected a folder"
+        )
+    return target
+
+
+def _check_place(
+    out: str | Path, target: Path, inputs: Iterable[str | Path | None], label: str = "out: "
+) -> None:
+    """Where ``out`` may be: not the current folder's, not an input's, not a file's."""
+    try:
+        cwd = Path.cwd().resolve()
+    except OSError:  # the current folder was removed: nothing to protect there
+        cwd = None
+    if cwd is not None and cwd.is_relative_to(target):
+        raise InputError(
+            f"{label}{out} is the current folder or holds it, and an output folder is replaced "
+            "whole; choose another folder (or run from outside it)"
+        )
+    for item in inputs:
+        if item is None or "\0" in os.fspath(item):
+            continue
+        try:
+            path = Path(item).expanduser().resolve()
+        except (OSError, RuntimeError):
+            continue
+        if path.is_relative_to(target):
+            how = "is" if path == target else "holds"
+            raise InputError(
+                f"{label}{out} {how} the input {item} of this run, and an output folder is "
+                "replaced whole; choose an output folder outside the inputs"
+            )
+    if target.exists() and not target.is_dir():
+        raise InputError(f"{label}{out} exists and is not a folder")
+    above = target.parent
+    while not above.exists():
+        above = above.parent
+    if not above.is_dir():
+        raise InputError(f"{label}{above} is a file, not a folder; expected a folder path")
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` of this host is running (unknown counts as running)."""
+    if pid <= 0:
+        return False
+    if sys.platform == "win32":  # os.kill(pid, 0) would end the process there
+        import ctypes
+
+        kernel32 = ctypes.windll.kernel32  # type: ignore[attr-defined]
+        handle = kernel32.OpenProcess(0x1000, False, pid)  # PROCESS_QUERY_LIMITED_INFORMATION
+        if not handle:
+            return False
+        code = ctypes.c_ulong()
+        kernel32.GetExitCodeProcess(handle, ctypes.byref(code))
+        kernel32.CloseHandle(handle)
+        return code.value == 259  # STILL_ACTIVE
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process
+        return True
+    return True
+
+
+def _stale(lock: Path, text: str) -> bool:
+    """A lock whose process has died on this host (or an empty one a minute old)."""
+    parts = text.split()
+    if len(parts) < 2 or not parts[0].isdigit():
+        try:
+            return time.time() - lock.stat().st_mtime > 60
+        except OSError:
+            return True
+    return parts[1] == socket.gethostname() and not _alive(int(parts[0]))
+
+
+def _held(out: str | Path, lock: Path, text: str, label: str) -> InputError:
+    parts = text.split()
+    who = f"process {parts[0]} on {parts[1]}" if len(parts) >= 2 else "another run"
+    return InputError(
+        f"{label}{out} is being written by another inertiafit run ({who}; lock {lock}); "
+        "wait for it to finish, or delete the lock file if no run is going"
+    )
+
+
+def _make_parents(folder: Path, label: str) -> list[Path]:
+    missing = []
+    while not folder.exists():
+        missing.append(folder)
+        folder = folder.parent
+    made: list[Path] = []
+    for path in reversed(missing):
+        try:
+            path.mkdir()
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            _remove_empty(made)
+            raise InputError(f"{label}cannot create the folder {path} ({exc.strerror})") from None
+        made.append(path)
+    return made
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    for path in reversed(folders):
+        try:
+            path.rmdir()
+        except OSError:
+            return
+
+
+def _claim(out: str | Path, target: Path, label: str = "out: ") -> None:
+    """Claim ``target`` for this process with its lock file (created with ``O_EXCL``)."""
+    if target in _CLAIMS:
+        if _CLAIMS[target].writing:
+            raise InputError(f"{label}{out} is being written by this process already")
+        return
+    made = _make_parents(target.parent, label)
+    lock = target.parent / f".{target.name}.lock"
+    token = f"{os.getpid()} {socket.gethostname()} {secrets.token_hex(4)}\n"
+    for _ in range(5):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                text = lock.read_text(encoding="utf-8", errors="replace")
+            except FileNotFoundError:  # released meanwhile
+                continue
+            except OSError:
+                text = ""
+            if not _stale(lock, text):
+                _remove_empty(made)
+                raise _held(out, lock, text, label) from None
+            # Taken over by renaming it away: only one run can move a given file.
+            grave = lock.with_name(f"{lock.name}.{secrets.token_hex(4)}")
+            try:
+                os.rename(lock, grave)
+            except OSError:
+                continue
+            moved = grave.read_text(encoding="utf-8", errors="replace")
+            if moved != text:  # another run's fresh lock: put it back
+                try:
+                    os.link(grave, lock)
+                finally:
+                    grave.unlink()
+                _remove_empty(made)
+                raise _held(out, lock, moved, label) from None
+            grave.unlink()
+            continue
+        except OSError as exc:
+            _remove_empty(made)
+            raise InputError(
+                f"{label}cannot write in {target.parent} ({exc.strerror}); "
+                "choose a folder you can write to"
+            ) from None
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(token)
+        _CLAIMS[target] = _Claim(lock, token, made)
+        return
+    raise _held(out, lock, "", label)
+
+
+def _release(target: Path, *, written: bool = False) -> None:
+    """Remove this process's lock of ``target`` (and the parents made for it if unused)."""
+    claim = _CLAIMS.pop(target, None)
+    if claim is None:
+        return
+    try:
+        if claim.lock.read_text(encoding="utf-8") == claim.token:
+            claim.lock.unlink()
+    except OSError:
+        pass
+    if not written:
+        _remove_empty(claim.made)
+
+
+@atexit.register
+def _release_all() -> None:
+    for target in list(_CLAIMS):
+        _release(target)
+
+
+def check_out(out: str | Path, *, inputs: Iterable[str | Path | None] = ()) -> Path:
+    """Check an output folder before any work, and claim it for this run.
+
+    Parameters
+    ----------
+    out : path
+        The output folder (``--out``); a symlink is followed to its target.
+    inputs : paths
+        The run's input files and folders (``None`` items are skipped): ``out`` may not be
+        one of them or hold one.
+
+    Returns
+    -------
+    Path
+        The folder, resolved.
+
+    Raises
+    ------
+    InputError
+        One line: ``out`` is a file, the current folder or an ancestor of it, holds an input,
+        holds anything inertiafit did not write (:func:`check_replaceable`), is in a folder
+        that cannot be written, or is being written by another run (its lock is held).
+    """
+    target = _resolve(out)
+    _check_place(out, target, inputs)
+    _claim(out, target)
+    try:
+        check_replaceable(target)
+    except BaseException:
+        _release(target)
+        raise
+    return target
+
+
+def guard_outputs[**P, R](func: Callable[P, R]) -> Callable[P, R]:
+    """Decorate a command that writes an output folder: it can be ended cleanly.
+
+    While it runs, SIGTERM ends it as an error does (``SystemExit`` with status 143), so
+    staging folders are removed; when it ends, every folder it claimed with :func:`check_out`
+    and did not write is released (its lock removed).
+    """
+
+    @functools.wraps(func)
+    def guarded(*args: P.args, **kwargs: P.kwargs) -> R:
+        before = set(_CLAIMS)
+        try:
+            with _sigterm_ends():
+                return func(*args, **kwargs)
+        finally:
+            for target in set(_CLAIMS) - before:
+                _release(target)
+
+    return guarded
+
+
+# -- signals ---------------------------------------------------------------------------------
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+def _stop(signum: int, _frame: object) -> None:
+    raise SystemExit(128 + signum)
+
+
+@contextmanager
+def _sigterm_ends() -> Iterator[None]:
+    """SIGTERM raises ``SystemExit`` in here (main thread only), so ``finally`` clauses run."""
+    previous = signal.signal(signal.SIGTERM, _stop) if _main_thread() else None
+    try:
+        yield
+    finally:
+        if _main_thread():
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """Ctrl-C and SIGTERM wait until the block is done (the renames of a swap)."""
+    if not _main_thread():
+        yield
+        return
+    pending: list[int] = []  # signal numbers
+    watched = (signal.SIGINT, signal.SIGTERM)
+    previous = {
+        s: signal.signal(s, lambda signum, _f: pending.append(int(signum))) for s in watched
+    }
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for signum in dict.fromkeys(pending):
+            signal.raise_signal(signum)
+
+
+# -- staging and the swap --------------------------------------------------------------------
 
 
 @contextmanager
 def _staging(parent: Path, prefix: str) -> Iterator[Path]:
-    """A temporary folder inside ``parent``, removed if it still exists afterwards."""
+    """A temporary folder inside ``parent``, removed if it still exists afterwards.
+
+    It gets the permissions of a folder made by ``mkdir`` (``mkdtemp`` makes it private).
+    """
     tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
     try:
+        mask = os.umask(0o022)
+        os.umask(mask)
+        tmp.chmod(0o777 & ~mask)
         yield tmp
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def _warn(message: str) -> None:
+    print(f"inertiafit: warning: {' '.join(message.split())}", file=sys.stderr)
+
+
+def _swap(new: Path, target: Path, out: str | Path, label: str = "out: ") -> None:
+    """Put the complete folder ``new`` at ``target``: old aside, new in, old removed last."""
+    with _signals_held():
+        if not target.exists():
+            try:
+                os.rename(new, target)
+            except OSError as exc:
+                raise InputError(
+                    f"{label}could not put the new outputs at {out} ({exc.strerror})"
+                ) from None
+            return
+        aside = target.with_name(f".{target.name}.old-{secrets.token_hex(4)}")
+        try:
+            os.rename(target, aside)
+        except OSError as exc:
+            raise InputError(
+                f"{label}could not move {out} aside to replace it ({exc.strerror}); it is "
+                "unchanged and the new outputs were discarded"
+            ) from None
+        try:
+            os.rename(new, target)
+        except OSError as exc:
+            try:
+                os.rename(aside, target)
+            except OSError:
+                raise InputError(
+                    f"{label}could not put the new outputs at {out} ({exc.strerror}); the old "
+                    f"outputs are whole in {aside}"
+                ) from None
+            raise InputError(
+                f"{label}could not put the new outputs at {out} ({exc.strerror}); it is "
+                "unchanged and the new outputs were discarded"
+            ) from None
+    try:
+        shutil.rmtree(aside)
+    except OSError as exc:
+        _warn(
+            f"the new outputs are in {out}, but the old ones moved aside to {aside} could not "
+            f"all be removed ({exc.strerror or exc}); delete that folder yourself"
+        )
+
+
 @contextmanager
 def output_folder(out: str | Path) -> Iterator[Path]:
-    """Yield a temporary folder; on success it replaces ``out``, on error it is removed."""
-    out = Path(out)
-    check_replaceable(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with _staging(out.parent, f".{out.name}.") as tmp:
-        yield tmp
-        (tmp / MARKER).write_text("written by inertiafit; the whole folder is replaced on rerun\n")
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
+    """Yield a staging folder; on success it replaces ``out`` whole, on error it is removed.
+
+    ``out`` is checked and claimed (:func:`check_out`) unless this process claimed it already;
+    the claim is released at the end. The marker listing every file written is added last.
+    """
+    target = _resolve(out)
+    if target not in _CLAIMS:
+        check_out(out)
+    claim = _CLAIMS[target]
+    if claim.writing:
+        raise InputError(f"out: {out} is being written by this process already")
+    claim.writing = True
+    written = False
+    try:
+        with _sigterm_ends(), _staging(target.parent, f".{target.name}.new-") as tmp:
+            yield tmp
+            _write_marker(tmp, _listing(tmp))
+            check_replaceable(target)  # again: under the lock, nothing of yours appeared
+            _swap(tmp, target, out)
+            written = True
+    finally:
+        claim.writing = False
+        _release(target, written=written)
 
 
 @contextmanager
 def replace_files(folder: str | Path) -> Iterator[Path]:
-    """Yield a temporary folder inside ``folder``; its files then replace their namesakes.
+    """Yield a temporary folder; its files then replace their namesakes in ``folder``, together.
 
-    On success every file of the temporary folder replaces its namesake in ``folder``; on
-    error nothing in ``folder`` changes.
+    ``folder`` must exist; it is checked and claimed as an output folder is (not the current
+    folder, a writable parent, one run at a time) but may hold anything: it is copied whole
+    beside itself, the new files replace their namesakes in the copy, and the copy replaces
+    ``folder`` by the swap of :func:`output_folder`. On error nothing in ``folder`` changes.
+    Its marker, if it lists files, then lists the new ones too (and nothing else new); a new
+    file whose namesake is not listed, or has changed since it was written, is refused.
     """
-    folder = Path(folder)
-    with _staging(folder, ".report-") as tmp:
-        yield tmp
-        for path in sorted(tmp.iterdir()):
-            shutil.move(path, folder / path.name)
+    target = _resolve(folder, "")
+    if not target.is_dir():
+        raise InputError(f"{folder}: no such output folder")
+    _check_place(folder, target, (), "")
+    _claim(folder, target, "")
+    claim = _CLAIMS[target]
+    claim.writing = True
+    written = False
+    try:
+        with (
+            _sigterm_ends(),
+            _staging(target.parent, f".{target.name}.draw-") as tmp,
+            _staging(target.parent, f".{target.name}.new-") as whole,
+        ):
+            yield tmp
+            drawn = _listing(tmp)
+            try:
+                shutil.copytree(target, whole, symlinks=True, dirs_exist_ok=True)
+            except OSError as exc:
+                raise InputError(
+                    f"{folder}: could not copy the folder to redraw it whole "
+                    f"({str(exc).splitlines()[0][:200]}); nothing changed"
+                ) from None
+            listed = _read_marker(whole)
+            if listed is not None:  # a listing to tell inertiafit's files from others'
+                have = _listing(whole)
+                for name in sorted(drawn):
+                    if name in have and listed.get(name, -1) != have[name]:
+                        raise InputError(
+                            f"{folder}: {name} was not written by inertiafit, or has changed "
+                            "since, and would be overwritten; move it out of the folder"
+                        )
+            try:
+                for path in sorted(tmp.iterdir()):
+                    dest = whole / path.name
+                    if dest.is_dir() and not dest.is_symlink():
+                        shutil.rmtree(dest)
+                    os.replace(path, dest)
+            except OSError as exc:
+                raise InputError(
+                    f"{folder}: could not place the redrawn file {exc.filename} "
+                    f"({exc.strerror}); nothing changed"
+                ) from None
+            if listed is not None:  # still only inertiafit's files listed
+                now = _listing(whole)
+                _write_marker(whole, {k: v for k, v in listed.items() if k in now} | drawn)
+            _swap(whole, target, folder, "")
+            written = True
+    finally:
+        claim.writing = False
+        _release(target, written=written)
 
 
 def write_csv(frame: pd.DataFrame, path: str | Path) -> Path:

@@ -42,7 +42,7 @@ import time
 import traceback
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack, contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -51,8 +51,9 @@ import pandas as pd
 
 from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
-from inertiafit.io.outputs import MARKER, check_replaceable, output_folder
-from inertiafit.pipeline.study import run_study
+from inertiafit.io.manifest import load_study
+from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder
+from inertiafit.pipeline.study import run_study, study_inputs
 from inertiafit.plotting.style import check_formats
 
 #: Columns of ``batch.csv``.
@@ -402,15 +403,13 @@ def _check_inputs(manifests, out: Path, scheduler, workers, hdi_prob) -> list[Pa
         )
     if scheduler is not None and not str(scheduler).strip():
         raise InputError("scheduler: expected an address such as tcp://host:8786, got ''")
-    # The checks of inertiafit.io.outputs.output_folder, made before a cluster is started for nothing.
-    check_replaceable(out)
-    root = out.resolve()
+    # Checked and claimed before a cluster is started for nothing: out may not hold a manifest
+    # or a file a manifest reads (a manifest that cannot be read fails as its study).
+    inputs: list[Path] = list(paths)
     for p in paths:
-        if p.resolve().is_relative_to(root):
-            raise InputError(
-                f"out: {out} holds the manifest {p}, and the folder is replaced whole; "
-                "choose an output folder outside the studies"
-            )
+        with suppress(InputError):
+            inputs += study_inputs(load_study(p))
+    check_out(out, inputs=inputs)
     return paths
 
 
@@ -429,6 +428,7 @@ def _row(manifest: Path, name: str, record: dict[str, Any], seed: int) -> dict[s
     }
 
 
+@guard_outputs
 def run_many(
     manifests: Sequence[str | Path],
     out: str | Path,

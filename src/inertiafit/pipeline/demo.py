@@ -12,7 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from inertiafit import paper
-from inertiafit.io.outputs import output_folder
+from inertiafit.io.outputs import check_out, guard_outputs, output_folder
 from inertiafit.pipeline.fit import run_fit
 from inertiafit.pipeline.information import run_information_demo
 from inertiafit.pipeline.study import analyse_study
@@ -80,6 +80,7 @@ axis = "along"
 """
 
 
+@guard_outputs
 def run_demo(
     *,
     out: str | Path = "demo-output",
@@ -96,6 +97,7 @@ def run_demo(
     """
     say = progress or (lambda msg: print(msg, file=sys.stderr))
     out = Path(out)
+    check_out(out)
     with output_folder(out) as folder:
         say("simulating the paper's experiment: 62 trials at 1 kHz")
         manifest = paper_study(folder / "study", seed=seed)

@@ -11,7 +11,7 @@ from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.inference.fit import fit_body
 from inertiafit.inference.priors import Prior, load_prior
-from inertiafit.io.outputs import output_folder
+from inertiafit.io.outputs import check_out, guard_outputs, output_folder
 from inertiafit.physics import GRAVITY
 from inertiafit.posterior import Posterior
 from inertiafit.report.outputs import write_fit_outputs
@@ -74,6 +74,7 @@ def fit_result(
     )
 
 
+@guard_outputs
 def run_fit(
     *,
     prior: str | Path | Prior,
@@ -102,8 +103,10 @@ def run_fit(
     ``shown_as`` is the folder named in the closing line when ``out`` is a temporary folder
     that will be renamed (the demo). ``mass``/``mass_sd`` (a weighing, kg) and
     ``com_distance``/``com_distance_sd`` (a balance point, m) are passed to
-    :func:`~inertiafit.inference.fit.fit_body`.
+    :func:`~inertiafit.inference.fit.fit_body`. ``out`` is checked first
+    (:func:`~inertiafit.io.outputs.check_out`).
     """
+    check_out(out, inputs=[prior.path if isinstance(prior, Prior) else prior])
     prior_obj = load_prior(prior)
     post = fit_body(
         prior_obj,

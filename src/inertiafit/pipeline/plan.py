@@ -13,6 +13,7 @@ from pathlib import Path
 
 from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
+from inertiafit.io.outputs import check_out, guard_outputs
 from inertiafit.planning.design import design_variants
 from inertiafit.planning.files import load_plan_file, pilot_inputs
 from inertiafit.planning.planner import PlanResult, plan
@@ -20,6 +21,7 @@ from inertiafit.planning.planner import PlanResult, plan
 __all__ = ["run_plan"]
 
 
+@guard_outputs
 def run_plan(
     design_file: str | Path | None = None,
     *,
@@ -48,6 +50,7 @@ def run_plan(
 
     if (design_file is None) == (pilot is None):
         raise InputError("plan: give a design file or a pilot folder (one of them)")
+    check_out(out, inputs=[design_file, pilot])
     if design_file is not None:
         kwargs = load_plan_file(design_file)
         if trials_per_speed or weigh or offsets:

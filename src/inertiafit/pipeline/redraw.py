@@ -132,13 +132,15 @@ def redraw(
 ) -> Result:
     """``inertiafit report``: redraw tables, figures and ``report.html`` in place.
 
-    Everything is drawn into a temporary folder first and moved into ``folder`` only when all
-    of it succeeded; :data:`~inertiafit.report.outputs.DATA_FILES` are read, never rewritten.
+    Everything is drawn into a temporary folder first, and ``folder`` is replaced by a copy
+    holding the new files only when all of it succeeded
+    (:func:`~inertiafit.io.outputs.replace_files`): a failure half-way leaves the old complete
+    set. :data:`~inertiafit.report.outputs.DATA_FILES` are read, never rewritten.
     """
     fmts = check_formats(formats)
-    result = load_result(folder, hdi_prob=hdi_prob)
     folder = Path(folder)
     with replace_files(folder) as tmp:
+        result = load_result(folder, hdi_prob=hdi_prob)
         written = write_outputs(tmp, result, hdi_prob=hdi_prob, formats=fmts, save_data=False)
     echo(
         f"redrew {len(written)} files in {folder}: report.html and "

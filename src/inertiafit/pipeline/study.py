@@ -24,7 +24,7 @@ from inertiafit.inference.fit import fit
 from inertiafit.inference.priors import Prior
 from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
-from inertiafit.io.outputs import output_folder
+from inertiafit.io.outputs import check_out, guard_outputs, output_folder
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
     ProcessedStudy,
@@ -36,7 +36,14 @@ from inertiafit.report.outputs import write_outputs
 from inertiafit.report.result import Result, make_result
 from inertiafit.shapes import ideal_body
 
-__all__ = ["analyse_study", "paper_baselines", "run_study", "study_ideals", "study_provenance"]
+__all__ = [
+    "analyse_study",
+    "paper_baselines",
+    "run_study",
+    "study_ideals",
+    "study_inputs",
+    "study_provenance",
+]
 
 
 def study_ideals(study: Study) -> dict[str, dict[str, float]]:
@@ -71,6 +78,12 @@ def study_provenance(
             for name, prior in priors.items()
         },
     }
+
+
+def study_inputs(study: Study) -> list[Path]:
+    """Every file a study reads: the manifest, its trial files and its prior files."""
+    priors = [p.path for p in study_priors(study).values() if p.path is not None]
+    return [study.path, *(t.file for t in study.trials), *priors]
 
 
 def paper_baselines(
@@ -193,6 +206,7 @@ def analyse_study(
     )
 
 
+@guard_outputs
 def run_study(
     manifest: str | Path,
     *,
@@ -203,9 +217,15 @@ def run_study(
     echo: Callable[[str], None] = print,
     progress: Callable[[str], None] | None = None,
 ) -> Result:
-    """``inertiafit run``: the whole pipeline, outputs written to ``out`` (replaced whole)."""
+    """``inertiafit run``: the whole pipeline, outputs written to ``out`` (replaced whole).
+
+    ``out`` is checked before any trial is read (:func:`~inertiafit.io.outputs.check_out`):
+    it may not hold the manifest, a trial file or a prior file.
+    """
     say = progress or (lambda msg: print(msg, file=sys.stderr))
-    result = analyse_study(manifest, seed=seed, hdi_prob=hdi_prob, echo=say)
+    study = load_study(manifest)
+    check_out(out, inputs=study_inputs(study))
+    result = analyse_study(study, seed=seed, hdi_prob=hdi_prob, echo=say)
     say(f"writing {out}")
     with output_folder(out) as folder:
         write_outputs(folder, result, formats=formats)
