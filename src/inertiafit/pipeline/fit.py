@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inertiafit._checks import check_positive, check_probability, check_seed
 from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.inference.fit import fit_body
@@ -104,6 +105,9 @@ def run_fit(
     ``com_distance``/``com_distance_sd`` (a balance point, m) are passed to
     :func:`~inertiafit.inference.fit.fit_body`.
     """
+    check_seed(seed)
+    check_probability(hdi_prob, "hdi_prob")
+    check_positive(gravity, "gravity", "m/s^2")
     prior_obj = load_prior(prior)
     post = fit_body(
         prior_obj,

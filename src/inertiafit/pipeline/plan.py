@@ -34,7 +34,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from inertiafit._checks import check_number, check_positive, check_probability
+from inertiafit._checks import (
+    check_number,
+    check_positive,
+    check_probability,
+    check_seed,
+    check_whole,
+)
 from inertiafit.errors import InputError
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
@@ -539,6 +545,9 @@ def plan(
     """
     t0 = time.perf_counter()
     check_probability(hdi_prob, "hdi_prob")
+    check_seed(seed)
+    check_whole(draws, "draws", 2)
+    check_positive(gravity, "gravity", "m/s^2")
     nominal = _nominal(bodies)
     names = [d.name for d in designs]
     if not designs:
@@ -955,6 +964,7 @@ def run_plan(
     from inertiafit.io.outputs import output_folder, write_csv
     from inertiafit.plotting.style import save_figure
 
+    check_seed(seed)
     if (design_file is None) == (pilot is None):
         raise InputError("plan: give a design file or a pilot folder (one of them)")
     if design_file is not None:
