@@ -177,10 +177,12 @@ def header_listing(
     never echoed into a message (it may be any file the manifest points at). ``names``: the
     cells' column names, if a cell holds more (``Time(Seconds)``: ``time``).
     """
-    names = [str(k).strip() for k in known]
-    lowered = {n.lower() for n in names}
+    expected = [str(k).strip() for k in known]
+    lowered = {n.lower() for n in expected}
     if not any(str(c).strip().lower() in lowered for c in (cells if names is None else names)):
-        return f"its first line names none of the columns {', '.join(names)}: is it a trial file?"
+        return (
+            f"its first line names none of the columns {', '.join(expected)}: is it a trial file?"
+        )
     shown = [
         c if len(c) <= HEADER_CELL_CHARS else c[: HEADER_CELL_CHARS - 3] + "..."
         for c in (str(c) for c in cells[:HEADER_CELLS_SHOWN])
