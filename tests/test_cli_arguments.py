@@ -177,7 +177,7 @@ def test_a_scheduler_that_is_not_an_address_is_one_line_and_no_traceback(tmp_pat
         check=False,
     )
     assert res.returncode == 2
-    assert_one_line(res.stderr, r"--scheduler: 'not a url' is not an address")
+    assert_one_line(res.stderr, r"--scheduler: not a url: cannot connect \(missing port number")
     assert not (tmp_path / "batch").exists()
 
 

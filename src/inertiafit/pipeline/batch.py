@@ -385,8 +385,9 @@ def _check_address(scheduler: str) -> None:
             parse_host_port(location)
     except ValueError as exc:
         raise InputError(
-            f"scheduler: {scheduler!r} is not an address ({' '.join(str(exc).split())}); "
-            "expected the address of a running Dask scheduler, e.g. tcp://host:8786"
+            f"scheduler: {scheduler}: cannot connect ({' '.join(str(exc).split())}); "
+            "expected the address of a running Dask scheduler, e.g. tcp://host:8786 "
+            "as printed by 'dask scheduler'"
         ) from None
 
 
