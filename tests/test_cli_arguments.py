@@ -378,3 +378,18 @@ def test_no_value_of_seed_gravity_or_hdi_prob_gives_a_traceback(seed, gravity, h
     # the first bad value is named, else the prior is
     named = re.match(r"inertiafit: error: (--[\w-]+|prior)", err)
     assert named, err
+
+
+def test_a_reader_that_goes_away_is_no_traceback():
+    # `inertiafit priors | head -1`: stdout closed before the command writes
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inertiafit.cli", "priors"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    proc.stdout.close()
+    _, err = proc.communicate(timeout=120)
+    assert err == ""
+    assert proc.returncode == 1
