@@ -322,7 +322,7 @@ def test_unreachable_scheduler_is_one_line_exit_2(studies, tmp_path, capsys):
         ),
         (["--hdi-prob", "1.5"], "--hdi-prob: expected a probability in (0, 1), got 1.5"),
         (["--formats", "png,gif"], "--formats: expected a comma-separated subset"),
-        (["--connect-timeout", "0"], "--connect-timeout: expected a positive number"),
+        (["--connect-timeout", "0"], "--connect-timeout: must be positive"),
     ],
 )
 def test_bad_options_are_one_line_exit_2(studies, tmp_path, capsys, extra, expected):

@@ -130,7 +130,7 @@ def _with(**changes):
         (_with(prior="no-such-prior"), "no such shipped prior"),
         (_with(inertia="abc"), "--inertia: expected a number, got 'abc'"),
         (_with(inertia="-0.5"), "--inertia.*positive"),
-        (_with(inertia_se="0"), "--inertia-se: expected a positive finite number, got 0.0"),
+        (_with(inertia_se="0"), "--inertia-se: must be positive, got 0.0"),
         (_with(gravity_moment_se=None), "--gravity-moment: one value needs its standard error"),
         (_with(inertia_se=None, inertia_n="30"), "--inertia-sd and --inertia-n go together"),
         (_with(hdi_prob="1.5"), r"--hdi-prob: expected a probability in \(0, 1\)"),

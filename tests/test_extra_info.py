@@ -376,4 +376,4 @@ def test_cli_fit_with_mass(tmp_path, capsys):
     assert main([*CLI, "--mass", "2.85", "--out", str(tmp_path / "p")]) == 2
     assert capsys.readouterr().err == "inertiafit: error: --mass: needs its SD --mass-sd too\n"
     assert main([*CLI, "--mass", "2.85", "--mass-sd", "-1", "--out", str(tmp_path / "p")]) == 2
-    assert "--mass-sd: expected a positive" in capsys.readouterr().err
+    assert "--mass-sd: must be positive, got -1.0" in capsys.readouterr().err

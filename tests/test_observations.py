@@ -45,7 +45,7 @@ def test_single_value_with_se_is_gaussian():
     [
         (lambda: Observation.from_values([0.2]), "one value needs its standard error"),
         (lambda: Observation.from_values([0.2, -0.1]), r"values\[1\].*positive"),
-        (lambda: Observation.from_values(["abc"]), r"values\[0\].*expected a number"),
+        (lambda: Observation.from_values(["abc"]), r"values\[0\].*expected a positive number"),
         (lambda: Observation.from_values([0.2, 0.2]), "identical"),
         (lambda: Observation.from_mean_se(0.2, 0), "standard error.*positive"),
         (lambda: Observation.from_mean_sd(0.2, 0.01, 1), "n must be an integer >= 2"),

@@ -172,7 +172,7 @@ BAD_FILES = [
             "[bodies.a]\nmass = 1\ncom_distance = 0.1\nradius_of_gyration = 0.05\n"
             '[[designs]]\nconditions = [["a"]]\nweigh = { a = -1 }\n'
         ),
-        "designs[0].weigh.a: expected a positive",
+        "designs[0].weigh.a: must be positive",
     ),
     (
         (

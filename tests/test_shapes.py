@@ -387,7 +387,7 @@ def test_ideal_body_paper_weight():
         ),
         (
             {"shape": "box", "a": 0.1, "b": 0.2, "c": "0.3", "mass": 1.0},
-            r"^study.toml: bodies.weight.ideal.c: expected a finite number \(m\), got '0.3'$",
+            r"^study.toml: bodies.weight.ideal.c: expected a positive number \(m\), got '0.3'$",
         ),
         (
             {"shape": "square-tube", "outer": 0.03, "inner": 0.026, "length": 0.45},

@@ -1,21 +1,61 @@
-"""One set of validators for numbers given to the library.
+"""One set of validators for numbers given to the library: one function per rule.
 
 Each raises :class:`~inertiafit.errors.InputError` with one line that starts with ``where``:
 the argument's name (``hdi_prob``) or a file and field (``study.toml: gravity``). The command
-line turns argument names into its option names, so these messages never speak of ``--flags``.
+line turns a leading argument name into its option name, so these messages never speak of
+``--flags``.
+
+``field`` (where given) names a key of a table in quotes after ``where``
+(``prior 'x': 'mass.sd' must be positive``), the style of the prior and anthropometric files;
+without it the message reads ``where: expected ...`` or ``where: must ...``.
 """
 
 from __future__ import annotations
 
 import math
+import operator
 
 from inertiafit.errors import InputError
 
-__all__ = ["check_number", "check_positive", "check_probability"]
+__all__ = [
+    "SEED_MAX",
+    "check_finite",
+    "check_interval",
+    "check_non_negative",
+    "check_number",
+    "check_positive",
+    "check_probability",
+    "check_seed",
+    "check_whole",
+]
+
+#: Largest seed NumPy's legacy seeding (and so every seed of the library) accepts.
+SEED_MAX = 2**32 - 1
+
+
+def _unit(unit: str) -> str:
+    return f" ({unit})" if unit else ""
+
+
+def _fail(where: str, field: str | None, must: str, expected: str) -> InputError:
+    """``where: 'field' must ...`` with a field, else ``where: expected ...``."""
+    if field is not None:
+        return InputError(f"{where}: '{field}' {must}")
+    return InputError(f"{where}: {expected}")
+
+
+def _as_float(value: object) -> float | None:
+    """``value`` as a float if it is a real number (not a bool, not a string), else None."""
+    if isinstance(value, bool | str | bytes):
+        return None
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
 
 
 def check_number(value: object, where: str) -> float:
-    """``value`` as a float (``nan`` and ``inf`` included), or an :class:`InputError`."""
+    """``value`` as a float (``nan`` and ``inf`` included, numeric text too), or an error."""
     if isinstance(value, bool):
         raise InputError(f"{where}: expected a number, got {value!r}")
     try:
@@ -24,12 +64,98 @@ def check_number(value: object, where: str) -> float:
         raise InputError(f"{where}: expected a number, got {value!r}") from None
 
 
-def check_positive(value: object, where: str, unit: str = "") -> float:
+def check_finite(value: object, where: str, unit: str = "", *, field: str | None = None) -> float:
+    """``value`` as a finite float: a real number, not a bool, text, ``nan`` or ``inf``."""
+    out = _as_float(value)
+    if out is None:
+        raise _fail(
+            where,
+            field,
+            f"must be a number{_unit(unit)}, got {value!r}",
+            f"expected a number{_unit(unit)}, got {value!r}",
+        )
+    if not math.isfinite(out):
+        raise _fail(
+            where,
+            field,
+            f"must be finite{_unit(unit)}, got {value!r}",
+            f"expected a finite number{_unit(unit)}, got {value!r}",
+        )
+    return out
+
+
+def check_positive(
+    value: object, where: str, unit: str = "", *, field: str | None = None
+) -> float:
     """``value`` as a finite float > 0 (``unit`` is named in the message)."""
-    out = check_number(value, where)
-    if not math.isfinite(out) or out <= 0:
-        unit_text = f" ({unit})" if unit else ""
-        raise InputError(f"{where}: expected a positive finite number{unit_text}, got {value!r}")
+    out = _as_float(value)
+    if out is None:
+        raise _fail(
+            where,
+            field,
+            f"must be a positive number{_unit(unit)}, got {value!r}",
+            f"expected a positive number{_unit(unit)}, got {value!r}",
+        )
+    if not math.isfinite(out):
+        raise _fail(
+            where,
+            field,
+            f"must be finite and positive{_unit(unit)}, got {value!r}",
+            f"expected a positive finite number{_unit(unit)}, got {value!r}",
+        )
+    if out <= 0:
+        raise _fail(
+            where,
+            field,
+            f"must be positive{_unit(unit)}, got {value!r}",
+            f"must be positive{_unit(unit)}, got {value!r}",
+        )
+    return out
+
+
+def check_non_negative(
+    value: object, where: str, unit: str = "", *, field: str | None = None
+) -> float:
+    """``value`` as a finite float >= 0."""
+    out = check_finite(value, where, unit, field=field)
+    if out < 0:
+        raise _fail(
+            where,
+            field,
+            f"must not be negative{_unit(unit)}, got {value!r}",
+            f"must not be negative{_unit(unit)}, got {value!r}",
+        )
+    return out
+
+
+def check_interval(
+    value: object,
+    where: str,
+    lower: float,
+    upper: float,
+    unit: str = "",
+    *,
+    field: str | None = None,
+    upper_closed: bool = False,
+) -> float:
+    """``value`` as a float in ``(lower, upper)`` (``(lower, upper]`` with ``upper_closed``)."""
+    span = f"({lower:g}, {upper:g}{']' if upper_closed else ')'}" + (f" {unit}" if unit else "")
+    out = _as_float(value)
+    if out is None:
+        raise _fail(
+            where,
+            field,
+            f"must be a number{' in ' + unit if unit else ''}, got {value!r}",
+            f"expected a number in {span}, got {value!r}",
+        )
+    beyond = operator.gt if upper_closed else operator.ge
+    if not (math.isfinite(out) and out > lower and not beyond(out, upper)):
+        raise _fail(
+            where,
+            field,
+            f"must lie in {span}, got {value!r}",
+            f"expected a number in {span}, got {value!r}",
+        )
     return out
 
 
@@ -39,3 +165,21 @@ def check_probability(value: object, where: str = "hdi_prob") -> float:
     if not 0 < out < 1:  # nan fails too
         raise InputError(f"{where}: expected a probability in (0, 1), got {value}")
     return out
+
+
+def check_whole(value: object, where: str, minimum: int = 1) -> int:
+    """``value`` as an int ``>= minimum``: an integer, or a float with no fraction."""
+    out = _as_float(value)
+    if out is None or not math.isfinite(out) or out != int(out) or out < minimum:
+        raise InputError(f"{where}: expected a whole number >= {minimum}, got {value!r}")
+    return int(out)
+
+
+def check_seed(value: object, where: str = "seed") -> int:
+    """A seed: a whole number from 0 to :data:`SEED_MAX` (what NumPy's generators accept)."""
+    out = _as_float(value)
+    ok = out is not None and math.isfinite(out) and out == int(out)
+    # compared as ints: a float would round 2**32 - 1 + 1 into range
+    if not ok or not 0 <= int(value) <= SEED_MAX:  # type: ignore[call-overload]
+        raise InputError(f"{where}: expected a whole number from 0 to {SEED_MAX}, got {value!r}")
+    return int(value)  # type: ignore[call-overload]

@@ -32,9 +32,9 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from numbers import Real
 from typing import Any
 
+from ._checks import check_non_negative, check_positive
 from .errors import InputError
 from .physics import GRAVITY
 
@@ -89,14 +89,16 @@ class IdealBody:
 
     def __post_init__(self) -> None:
         where = "IdealBody: "
-        object.__setattr__(self, "mass", _positive(self.mass, where, "mass", "kg"))
+        object.__setattr__(self, "mass", check_positive(self.mass, f"{where}mass", "kg"))
         object.__setattr__(
-            self, "com_distance", _non_negative(self.com_distance, where, "com_distance", "m")
+            self,
+            "com_distance",
+            check_non_negative(self.com_distance, f"{where}com_distance", "m"),
         )
         object.__setattr__(
             self,
             "radius_of_gyration",
-            _non_negative(self.radius_of_gyration, where, "radius_of_gyration", "m"),
+            check_non_negative(self.radius_of_gyration, f"{where}radius_of_gyration", "m"),
         )
 
     @property
@@ -509,9 +511,9 @@ def ideal_body(spec: Mapping[str, Any], where: str) -> IdealBody:
 
 
 def _solid_disk(where, radius, thickness, mass, density, com_distance, axis) -> IdealBody:
-    r = _positive(radius, where, "radius", "m")
-    h = _positive(thickness, where, "thickness", "m")
-    x = _non_negative(com_distance, where, "com_distance", "m")
+    r = check_positive(radius, f"{where}radius", "m")
+    h = check_positive(thickness, f"{where}thickness", "m")
+    x = check_non_negative(com_distance, f"{where}com_distance", "m")
     if axis == "along":
         rho2, text = r**2 / 2, "parallel to the disk's symmetry axis"
     elif axis == "across":
@@ -528,23 +530,23 @@ def _solid_disk(where, radius, thickness, mass, density, com_distance, axis) -> 
 
 
 def _rod(where, length, mass, com_distance) -> IdealBody:
-    length = _positive(length, where, "length", "m")
-    m = _positive(mass, where, "mass", "kg")
+    length = check_positive(length, f"{where}length", "m")
+    m = check_positive(mass, f"{where}mass", "kg")
     x = (
         length / 2
         if com_distance is None
-        else _non_negative(com_distance, where, "com_distance", "m")
+        else check_non_negative(com_distance, f"{where}com_distance", "m")
     )
     text = "perpendicular to the rod, which lies along the lever arm"
     return IdealBody(m, x, length / math.sqrt(12), "rod", text, (("length", length),))
 
 
 def _square_tube(where, outer, inner, length, mass, density, com_distance) -> IdealBody:
-    outer = _positive(outer, where, "outer", "m")
-    inner = _positive(inner, where, "inner", "m")
+    outer = check_positive(outer, f"{where}outer", "m")
+    inner = check_positive(inner, f"{where}inner", "m")
     if inner >= outer:
         raise InputError(f"{where}inner: must be smaller than outer = {outer!r} m, got {inner!r}")
-    length = _positive(length, where, "length", "m")
+    length = check_positive(length, f"{where}length", "m")
     rho2 = _tube_rho2(outer, outer, inner, inner, length)
     volume = (outer**2 - inner**2) * length
     m, d = _mass_and_density(where, volume, mass, density)
@@ -557,10 +559,10 @@ def _square_tube(where, outer, inner, length, mass, density, com_distance) -> Id
 def _rectangular_tube(
     where, outer_w, outer_h, inner_w, inner_h, length, mass, density, com_distance
 ) -> IdealBody:
-    big_w = _positive(outer_w, where, "outer_w", "m")
-    big_h = _positive(outer_h, where, "outer_h", "m")
-    small_w = _positive(inner_w, where, "inner_w", "m")
-    small_h = _positive(inner_h, where, "inner_h", "m")
+    big_w = check_positive(outer_w, f"{where}outer_w", "m")
+    big_h = check_positive(outer_h, f"{where}outer_h", "m")
+    small_w = check_positive(inner_w, f"{where}inner_w", "m")
+    small_h = check_positive(inner_h, f"{where}inner_h", "m")
     if small_w >= big_w:
         raise InputError(
             f"{where}inner_w: must be smaller than outer_w = {big_w!r} m, got {small_w!r}"
@@ -569,7 +571,7 @@ def _rectangular_tube(
         raise InputError(
             f"{where}inner_h: must be smaller than outer_h = {big_h!r} m, got {small_h!r}"
         )
-    length = _positive(length, where, "length", "m")
+    length = check_positive(length, f"{where}length", "m")
     rho2 = _tube_rho2(big_w, big_h, small_w, small_h, length)
     volume = (big_w * big_h - small_w * small_h) * length
     m, d = _mass_and_density(where, volume, mass, density)
@@ -586,9 +588,9 @@ def _rectangular_tube(
 
 
 def _box(where, a, b, c, mass, density, com_distance) -> IdealBody:
-    a = _positive(a, where, "a", "m")
-    b = _positive(b, where, "b", "m")
-    c = _positive(c, where, "c", "m")
+    a = check_positive(a, f"{where}a", "m")
+    b = check_positive(b, f"{where}b", "m")
+    c = check_positive(c, f"{where}c", "m")
     volume = a * b * c
     m, d = _mass_and_density(where, volume, mass, density)
     x = _default_com(where, com_distance, b)
@@ -598,8 +600,8 @@ def _box(where, a, b, c, mass, density, com_distance) -> IdealBody:
 
 
 def _sphere(where, radius, mass, density, com_distance) -> IdealBody:
-    r = _positive(radius, where, "radius", "m")
-    x = _non_negative(com_distance, where, "com_distance", "m")
+    r = check_positive(radius, f"{where}radius", "m")
+    x = check_non_negative(com_distance, f"{where}com_distance", "m")
     volume = 4 / 3 * math.pi * r**3
     m, d = _mass_and_density(where, volume, mass, density)
     rho = r * math.sqrt(2 / 5)
@@ -617,7 +619,7 @@ def _tube_rho2(big_w: float, big_h: float, small_w: float, small_h: float, lengt
 def _default_com(where: str, com_distance: object, extent: float) -> float:
     if com_distance is None:
         return extent / 2
-    return _non_negative(com_distance, where, "com_distance", "m")
+    return check_non_negative(com_distance, f"{where}com_distance", "m")
 
 
 def _mass_and_density(
@@ -629,27 +631,7 @@ def _mass_and_density(
             f"{where}mass: give exactly one of mass (kg) or density (kg/m^3), got {got}"
         )
     if mass is not None:
-        m = _positive(mass, where, "mass", "kg")
+        m = check_positive(mass, f"{where}mass", "kg")
         return m, m / volume
-    d = _positive(density, where, "density", "kg/m^3")
+    d = check_positive(density, f"{where}density", "kg/m^3")
     return d * volume, d
-
-
-def _number(value: object, where: str, name: str, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
-        raise InputError(f"{where}{name}: expected a finite number ({unit}), got {value!r}")
-    return float(value)
-
-
-def _positive(value: object, where: str, name: str, unit: str) -> float:
-    v = _number(value, where, name, unit)
-    if v <= 0:
-        raise InputError(f"{where}{name}: must be positive ({unit}), got {value!r}")
-    return v
-
-
-def _non_negative(value: object, where: str, name: str, unit: str) -> float:
-    v = _number(value, where, name, unit)
-    if v < 0:
-        raise InputError(f"{where}{name}: must not be negative ({unit}), got {value!r}")
-    return v

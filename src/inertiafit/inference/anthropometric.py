@@ -35,6 +35,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from inertiafit._checks import check_interval
 from inertiafit.errors import InputError
 from inertiafit.physics import PARAMETERS
 
@@ -368,15 +369,6 @@ def _segment(table: Table, name: Any, where: str) -> Segment:
     raise InputError(f"{where}: unknown segment {name!r}; expected one of {valid}")
 
 
-def _check(value: Any, where: str, what: str, limit: float, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{where}: '{what}' must be a number in {unit}, got {value!r}")
-    v = float(value)
-    if not (math.isfinite(v) and 0 < v <= limit):
-        raise InputError(f"{where}: '{what}' must lie in (0, {limit:g}] {unit}, got {value!r}")
-    return v
-
-
 def segment_values(
     table: str,
     segment: str,
@@ -413,7 +405,9 @@ def segment_values(
     """
     tab, sex_key = resolve_table(table, sex, where=where)
     seg = _segment(tab, segment, where)
-    mass_total = _check(body_mass, where, "body_mass", MAX_BODY_MASS, "kg")
+    mass_total = check_interval(
+        body_mass, where, 0, MAX_BODY_MASS, "kg", field="body_mass", upper_closed=True
+    )
     lengths: dict[str, float] = {}
     if segment_lengths is not None:
         if segment_length is not None:
@@ -429,13 +423,27 @@ def segment_values(
                 f"got {segment_lengths!r}"
             )
         for part in seg.parts:
-            lengths[part] = _check(
-                segment_lengths[part], where, f"segment_lengths.{part}", MAX_SEGMENT_LENGTH, "m"
+            lengths[part] = check_interval(
+                segment_lengths[part],
+                where,
+                0,
+                MAX_SEGMENT_LENGTH,
+                "m",
+                field=f"segment_lengths.{part}",
+                upper_closed=True,
             )
     else:
         if segment_length is None:
             raise InputError(f"{where}: 'segment_length' is missing ({seg.length}, in m)")
-        length = _check(segment_length, where, "segment_length", MAX_SEGMENT_LENGTH, "m")
+        length = check_interval(
+            segment_length,
+            where,
+            0,
+            MAX_SEGMENT_LENGTH,
+            "m",
+            field="segment_length",
+            upper_closed=True,
+        )
         if seg.parts:
             first, *rest = seg.parts
             lengths[first] = length

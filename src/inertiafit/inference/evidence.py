@@ -176,7 +176,17 @@ def evidence_from_numbers(
     sd, n : float, int, optional
         SD and number of the trials behind one mean (the same Student-t as the trials).
     """
-    vals = [values] if np.isscalar(values) else list(values)  # type: ignore[list-item]
+    if values is None or isinstance(values, str | bytes):  # type: ignore[redundant-expr]
+        raise InputError(f"{name}: expected a number or a sequence of numbers, got {values!r}")
+    if np.isscalar(values):
+        vals = [values]
+    else:
+        try:
+            vals = list(values)  # type: ignore[arg-type]
+        except TypeError:
+            raise InputError(
+                f"{name}: expected a number or a sequence of numbers, got {values!r}"
+            ) from None
     if se is not None:
         se = check_positive(se, f"{name}_se")
     if sd is not None:
@@ -185,7 +195,7 @@ def evidence_from_numbers(
         if sd is None or n is None:
             raise InputError(f"{name}_sd and {name}_n go together; give both")
         if len(vals) != 1 or se is not None:
-            raise InputError(f"{name}_sd/{name}_n describe one mean; give one {name} value")
+            raise InputError(f"{name}_sd and {name}_n describe one mean; give one {name} value")
         return Observation.from_mean_sd(vals[0], sd, n, where=name)
     return Observation.from_values(vals, se=se, where=name)
 

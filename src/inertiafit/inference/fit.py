@@ -14,6 +14,7 @@ from importlib.metadata import version
 import numpy as np
 import xarray as xr
 
+from inertiafit._checks import check_seed
 from inertiafit.inference.evidence import evidence_from_numbers, measured_from_numbers
 from inertiafit.inference.model import MEASURED, Condition, Model
 from inertiafit.inference.priors import Prior, load_prior
@@ -297,6 +298,7 @@ def fit(
         Input files' SHA-256 and reader settings, stored in the ``provenance`` attribute
         (JSON; see :func:`inertiafit.pipeline.study.study_provenance`).
     """
+    seed = check_seed(seed)
     model.check_feasible()
     run = sample(model, seed=seed, settings=settings)
     return Posterior(build_tree(model, run, seed=seed, inputs=inputs, provenance=provenance))
@@ -352,6 +354,7 @@ def fit_body(
     Posterior
         The body is named after the prior.
     """
+    seed = check_seed(seed)
     prior = load_prior(prior)
     measured = measured_from_numbers(
         mass=(mass, mass_sd), com_distance=(com_distance, com_distance_sd)

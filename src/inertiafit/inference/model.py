@@ -70,6 +70,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from inertiafit import physics
+from inertiafit._checks import check_number, check_positive
 from inertiafit.errors import InputError
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
@@ -449,7 +450,8 @@ class Model:
         self.priors = dict(priors)
         self.bodies = tuple(self.priors)
         self.conditions = tuple(conditions)
-        self.gravity = float(gravity)
+        self.gravity = check_positive(gravity, "gravity", "m/s^2")
+        torque_gain_sd = check_number(torque_gain_sd, "torque_gain_sd")
         if not (math.isfinite(torque_gain_sd) and 0 <= torque_gain_sd < MAX_TORQUE_GAIN_SD):
             raise InputError(
                 f"torque_gain_sd: expected a relative SD in [0, {MAX_TORQUE_GAIN_SD:g}), "

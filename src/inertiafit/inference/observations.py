@@ -24,7 +24,13 @@ from functools import cached_property
 
 import numpy as np
 
-from inertiafit._checks import check_positive
+from inertiafit._checks import (
+    check_finite,
+    check_non_negative,
+    check_number,
+    check_positive,
+    check_whole,
+)
 from inertiafit.errors import InputError
 from inertiafit.stats import SmearedStudentT
 
@@ -65,6 +71,19 @@ class Observation:
     n: int
     values: tuple[float, ...] = ()
     shared_sd: float = 0.0
+
+    def __post_init__(self) -> None:
+        # A zero or infinite scale, or a df <= 0, makes every density nan or infinite.
+        object.__setattr__(self, "center", check_finite(self.center, "Observation: center"))
+        object.__setattr__(self, "scale", check_positive(self.scale, "Observation: scale"))
+        df = check_number(self.df, "Observation: df")
+        if not df > 0:  # inf (a Gaussian) allowed; nan refused
+            raise InputError(f"Observation: df: must be positive (or inf), got {self.df!r}")
+        object.__setattr__(self, "df", df)
+        object.__setattr__(self, "n", check_whole(self.n, "Observation: n", 1))
+        object.__setattr__(
+            self, "shared_sd", check_non_negative(self.shared_sd, "Observation: shared_sd")
+        )
 
     @classmethod
     def from_values(cls, values: Sequence[float], *, se: float | None = None, where="values"):
@@ -113,9 +132,7 @@ class Observation:
 
     def with_shared_error(self, sd: float) -> Observation:
         """The same evidence with a Gaussian error of SD ``sd`` common to all its trials."""
-        if not (math.isfinite(sd) and sd >= 0):
-            raise InputError(f"shared error: expected a finite SD >= 0, got {sd!r}")
-        return dataclasses.replace(self, shared_sd=float(sd))
+        return dataclasses.replace(self, shared_sd=check_non_negative(sd, "shared error"))
 
     def scaled(self, factor: float) -> Observation:
         """The evidence with every scale (``scale``, ``shared_sd``) multiplied by ``factor``."""

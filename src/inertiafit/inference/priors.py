@@ -53,6 +53,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy import special
 
+from inertiafit._checks import check_finite, check_positive
 from inertiafit.errors import InputError
 from inertiafit.inference import anthropometric
 from inertiafit.io.units import si_factors
@@ -134,6 +135,36 @@ class Prior:
     reference: dict[str, Any] = field(default_factory=dict)
     path: Path | None = None
     distribution: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        # Built directly (not by parse_prior): a missing key would fail later as a KeyError.
+        where = f"Prior {self.name!r}"
+        for attr in ("nominal", "lower", "upper"):
+            table = getattr(self, attr)
+            if not isinstance(table, dict):
+                raise InputError(f"{where}: {attr}: expected a dict by parameter, got {table!r}")
+            for p in PARAMETERS:
+                if p not in table:
+                    raise InputError(
+                        f"{where}: {attr}: missing {p!r} (expected {', '.join(PARAMETERS)})"
+                    )
+                check_positive(table[p], f"{where}: {attr}.{p}")
+        for p in PARAMETERS:
+            if not self.lower[p] < self.upper[p]:
+                raise InputError(
+                    f"{where}: {p}: expected lower < upper, got {self.lower[p]!r} and "
+                    f"{self.upper[p]!r}"
+                )
+        for p, d in self.distribution.items():
+            kind = d.get("kind") if isinstance(d, dict) else None  # type: ignore[redundant-expr]
+            if p not in PARAMETERS or kind not in DISTRIBUTIONS:
+                raise InputError(
+                    f"{where}: distribution.{p}: expected a parameter ({', '.join(PARAMETERS)}) "
+                    f"with a kind ({', '.join(DISTRIBUTIONS)}), got {d!r}"
+                )
+            for key in ("median", "sd_log") if kind == "lognormal" else ("mean", "sd"):
+                if kind != "uniform" and key not in d:
+                    raise InputError(f"{where}: distribution.{p}: missing {key!r} ({kind})")
 
     def kind(self, parameter: str) -> str:
         """The parameter's distribution: ``uniform``, ``normal``, ``lognormal`` or ..."""
@@ -275,15 +306,6 @@ def _truncated_normal_quantile(u, mean: float, sd: float, lower: float, upper: f
     return np.clip(mean + sd * special.ndtri(c0 + np.asarray(u) * (c1 - c0)), lower, upper)
 
 
-def _number(value: Any, where: str, field_name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{where}: '{field_name}' must be a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise InputError(f"{where}: '{field_name}' must be finite, got {value!r}")
-    return v
-
-
 def parse_prior(
     table: dict[str, Any], *, name: str, where: str, path: Path | None = None
 ) -> Prior:
@@ -309,7 +331,7 @@ def parse_prior(
         raise InputError(
             f"{where}: unknown key '{unknown[0]}' (allowed: {', '.join(sorted(_TOP_KEYS))})"
         )
-    spread = _number(table.get("spread", DEFAULT_SPREAD), where, "spread")
+    spread = check_finite(table.get("spread", DEFAULT_SPREAD), where, field="spread")
     if not 0 < spread < 1:
         raise InputError(f"{where}: 'spread' must lie in (0, 1), got {spread}")
     nominal, lower, upper, distribution = {}, {}, {}, {}
@@ -367,7 +389,7 @@ def parse_prior(
     if bad:
         raise InputError(f"{where}: unknown key 'reference.{bad[0]}'")
     ref = {
-        k: (v if k == "label" else _number(v, where, f"reference.{k}"))
+        k: (v if k == "label" else check_finite(v, where, field=f"reference.{k}"))
         for k, v in reference.items()
     }
     for key in ("description", "source"):
@@ -447,10 +469,10 @@ def _uniform_bounds(entry: dict, p: str, spread: float, scale: float, where: str
     """``(nominal, lower, upper)`` of a uniform parameter (SI units)."""
     if "nominal" not in entry:
         raise InputError(f"{where}: '{p}.nominal' is missing (a positive number)")
-    nom = _number(entry["nominal"], where, f"{p}.nominal") * scale
+    nom = check_finite(entry["nominal"], where, field=f"{p}.nominal") * scale
     if nom <= 0:
         raise InputError(f"{where}: '{p}.nominal' must be positive, got {entry['nominal']}")
-    own_spread = _number(entry.get("spread", spread), where, f"{p}.spread")
+    own_spread = check_finite(entry.get("spread", spread), where, field=f"{p}.spread")
     if not 0 < own_spread < 1:
         raise InputError(f"{where}: '{p}.spread' must lie in (0, 1), got {own_spread}")
     if ("lower" in entry) != ("upper" in entry):
@@ -458,8 +480,8 @@ def _uniform_bounds(entry: dict, p: str, spread: float, scale: float, where: str
     if "lower" in entry:
         if "spread" in entry:
             raise InputError(f"{where}: give '{p}.spread' or '{p}.lower'/'upper', not both")
-        lo = _number(entry["lower"], where, f"{p}.lower") * scale
-        hi = _number(entry["upper"], where, f"{p}.upper") * scale
+        lo = check_finite(entry["lower"], where, field=f"{p}.lower") * scale
+        hi = check_finite(entry["upper"], where, field=f"{p}.upper") * scale
     else:
         lo, hi = nom * (1 - own_spread), nom * (1 + own_spread)
     return nom, lo, hi
@@ -470,7 +492,7 @@ def _shaped_bounds(entry: dict, p: str, kind: str, scale: float, where: str):
     for key in DISTRIBUTIONS[kind]:
         if key not in entry:
             raise InputError(f"{where}: '{p}.{key}' is missing (a {kind} prior needs it)")
-    values = {k: _number(entry[k], where, f"{p}.{k}") for k in DISTRIBUTIONS[kind]}
+    values = {k: check_finite(entry[k], where, field=f"{p}.{k}") for k in DISTRIBUTIONS[kind]}
     spread_key = "sd_log" if kind == "lognormal" else "sd"
     if values[spread_key] <= 0:
         raise InputError(f"{where}: '{p}.{spread_key}' must be positive, got {entry[spread_key]}")
@@ -557,7 +579,7 @@ def load_prior(
             )
         raise InputError(f"{path}: prior file not found")
     try:
-        table = tomllib.loads(path.read_text(encoding="utf-8"))
+        table = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a BOM is not TOML
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML ({exc})") from None
     except (OSError, UnicodeDecodeError) as exc:

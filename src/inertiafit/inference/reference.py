@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inertiafit import physics
+from inertiafit._checks import check_positive, check_whole
 from inertiafit.inference.model import angles_at, feasible_measure, log_identified_prior
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
@@ -174,6 +175,9 @@ def reference_posterior(
     -------
     ReferencePosterior
     """
+    n_identified = check_whole(n_identified, "n_identified", 2)
+    n_mass = check_whole(n_mass, "n_mass", 2)
+    gravity = check_positive(gravity, "gravity", "m/s^2")
     lo, up = prior.lower, prior.upper
     a_rng, b_rng = _identified_support(prior)
     ca, ha = gravity_moment.center / gravity, gravity_moment.quantile_halfwidth(tail) / gravity

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from inertiafit._checks import check_non_negative, check_positive, check_seed, check_whole
 from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.inference.blocked import BlockedGibbs
 from inertiafit.inference.model import Model
@@ -90,6 +91,15 @@ class SamplerSettings:
     burn_factor: float = 3.0
     moves: str = "auto"
     progress: bool | None = None
+
+    def __post_init__(self) -> None:
+        self.n_walkers = check_whole(self.n_walkers, "n_walkers", 2)
+        self.chunk = check_whole(self.chunk, "chunk", 1)
+        self.max_steps = check_whole(self.max_steps, "max_steps", 1)
+        self.ess_min = check_positive(self.ess_min, "ess_min")
+        self.r_hat_max = check_positive(self.r_hat_max, "r_hat_max")
+        self.tau_factor = check_positive(self.tau_factor, "tau_factor")
+        self.burn_factor = check_non_negative(self.burn_factor, "burn_factor")
 
 
 @dataclass
@@ -366,6 +376,7 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
     """
     import emcee
 
+    seed = check_seed(seed)
     s = settings or SamplerSettings()
     moves = resolve_moves(model, s.moves)
     d = model.ndim

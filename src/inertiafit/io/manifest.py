@@ -70,6 +70,7 @@ from typing import Any
 
 import xarray as xr
 
+from inertiafit._checks import check_positive
 from inertiafit.errors import InputError
 from inertiafit.io.readers import (
     available_formats,
@@ -415,14 +416,6 @@ def _fail(where: str, message: str) -> InputError:
     return InputError(f"{where}: {message}")
 
 
-def _positive(value: object, *, where: str, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise _fail(where, f"expected a positive number ({unit}), got {value!r}")
-    if value <= 0:
-        raise _fail(where, f"must be positive ({unit}), got {value!r}")
-    return float(value)
-
-
 def _number(value: object, *, where: str, what: str) -> float:
     """A finite number (not a bool), else a one-line error saying ``what`` was expected."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
@@ -591,12 +584,15 @@ def load_study(path: str | Path) -> Study:
     if not path.is_file():
         raise _fail(where, "study manifest not found")
     try:
-        with path.open("rb") as handle:
-            doc = tomllib.load(handle)
+        # utf-8-sig: a byte-order mark (which some Windows editors write) is not TOML
+        with path.open(encoding="utf-8-sig", newline="") as handle:
+            doc = tomllib.loads(handle.read())
     except tomllib.TOMLDecodeError as err:
         raise _fail(where, f"TOML syntax error: {err}") from None
     except UnicodeDecodeError as err:
         raise _fail(where, f"not a UTF-8 text file ({err.reason})") from None
+    except OSError as err:
+        raise _fail(where, f"cannot read the manifest ({err.strerror or err})") from None
 
     for key in doc:
         if key not in TOP_KEYS:
@@ -609,7 +605,7 @@ def load_study(path: str | Path) -> Study:
     description = doc.get("description", "")
     if not isinstance(description, str):
         raise _fail(f"{where}: description", f"expected a string, got {description!r}")
-    gravity = _positive(doc.get("gravity", GRAVITY), where=f"{where}: gravity", unit="m/s^2")
+    gravity = check_positive(doc.get("gravity", GRAVITY), f"{where}: gravity", "m/s^2")
     on_trial_error = doc.get("on_trial_error", "stop")
     if on_trial_error not in ON_TRIAL_ERROR:
         raise _fail(
@@ -755,17 +751,17 @@ def _measured(value: object, key: str, *, where: str) -> tuple[float, float]:
     factor = unit_factor(quantity, unit, where=f"{where}.unit")
     if "value" not in table:
         raise _fail(f"{where}.value", f"missing; the measured {key} ({unit})")
-    center = _positive(table["value"], where=f"{where}.value", unit=str(unit))
+    center = check_positive(table["value"], f"{where}.value", str(unit))
     if "sd" in table and "resolution" in table:
         raise _fail(
             where,
             "give sd (the measurement's SD) or resolution (the reading's step), not both",
         )
     if "sd" in table:
-        sd = _positive(table["sd"], where=f"{where}.sd", unit=str(unit))
+        sd = check_positive(table["sd"], f"{where}.sd", str(unit))
     elif "resolution" in table:
         # A reading rounded to a step q is off by a uniform error on (-q/2, q/2): SD q/sqrt(12).
-        sd = _positive(table["resolution"], where=f"{where}.resolution", unit=str(unit))
+        sd = check_positive(table["resolution"], f"{where}.resolution", str(unit))
         sd /= math.sqrt(12.0)
     else:
         raise _fail(
@@ -826,7 +822,7 @@ def _added_masses(value: object, *, where: str) -> tuple[tuple[float, float, flo
         for k in ("mass", "com_distance"):
             if k not in table:
                 raise _fail(f"{here}.{k}", f"missing ({'kg' if k == 'mass' else 'm'})")
-        mass = _positive(table["mass"], where=f"{here}.mass", unit="kg")
+        mass = check_positive(table["mass"], f"{here}.mass", "kg")
         distance = _number(
             table["com_distance"],
             where=f"{here}.com_distance",
@@ -921,7 +917,7 @@ def _trial(
     if speed is None and kind == "fast":
         raise _fail(f"{here}.speed", "missing; a fast trial needs its nominal speed in deg/s")
     if speed is not None:
-        speed = _positive(speed, where=f"{here}.speed", unit="deg/s")
+        speed = check_positive(speed, f"{here}.speed", "deg/s")
     window = _window(entry["window"], where=f"{here}.window") if "window" in entry else None
     offset_body, offset = (
         _offset(entry["offset"], where=f"{here}.offset", bodies=bodies)

@@ -49,7 +49,7 @@ from typing import Any
 
 import pandas as pd
 
-from inertiafit._checks import check_probability
+from inertiafit._checks import check_positive, check_probability, check_seed, check_whole
 from inertiafit.errors import InputError
 from inertiafit.io.manifest import load_study
 from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder
@@ -370,6 +370,28 @@ class _Dask:
 # ---------------------------------------------------------------------------------------------
 
 
+def _check_address(scheduler: str) -> None:
+    """Refuse a malformed scheduler address before a Client is made.
+
+    A Client that fails on one is left half-built, and closing it at exit prints a traceback
+    after 20 s.
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, location = parse_address(scheduler)
+        get_backend(scheme)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except ValueError as exc:
+        raise InputError(
+            f"scheduler: {scheduler}: cannot connect ({' '.join(str(exc).split())}); "
+            "expected the address of a running Dask scheduler, e.g. tcp://host:8786 "
+            "as printed by 'dask scheduler'"
+        ) from None
+
+
 def _stderr(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
@@ -381,7 +403,9 @@ def _available_cpus() -> int:
         return os.cpu_count() or 1
 
 
-def _check_inputs(manifests, out: Path, scheduler, workers, hdi_prob) -> list[Path]:
+def _check_inputs(
+    manifests, out: Path, scheduler, workers, hdi_prob, seed, connect_timeout
+) -> list[Path]:
     if isinstance(manifests, str | Path):
         manifests = [manifests]
     paths = [Path(m) for m in manifests]
@@ -393,16 +417,18 @@ def _check_inputs(manifests, out: Path, scheduler, workers, hdi_prob) -> list[Pa
         if not p.is_file():
             raise InputError(f"{p}: is not a file; expected a study manifest (TOML file)")
     check_probability(hdi_prob, "hdi_prob")
-    if workers is not None and (
-        isinstance(workers, bool) or int(workers) != workers or workers < 1
-    ):
-        raise InputError(f"workers: expected a whole number >= 1, got {workers}")
+    check_seed(seed)
+    check_positive(connect_timeout, "connect_timeout", "seconds")
+    if workers is not None:
+        check_whole(workers, "workers", 1)
     if scheduler is not None and workers is not None:
         raise InputError(
             "workers: applies to a local run only; the cluster at scheduler has its own"
         )
     if scheduler is not None and not str(scheduler).strip():
         raise InputError("scheduler: expected an address such as tcp://host:8786, got ''")
+    if scheduler is not None:
+        _check_address(str(scheduler))
     # Checked and claimed before a cluster is started for nothing: out may not hold a manifest
     # or a file a manifest reads (a manifest that cannot be read fails as its study).
     inputs: list[Path] = list(paths)
@@ -481,7 +507,7 @@ def run_many(
     t_start = time.perf_counter()
     say = echo or _stderr
     out = Path(out)
-    paths = _check_inputs(manifests, out, scheduler, workers, hdi_prob)
+    paths = _check_inputs(manifests, out, scheduler, workers, hdi_prob, seed, connect_timeout)
     formats = check_formats(formats)
     names = study_names(paths)
     n_local = min(workers or _available_cpus(), len(paths))

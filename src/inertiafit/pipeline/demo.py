@@ -12,6 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from inertiafit import paper
+from inertiafit._checks import check_probability, check_seed
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
 from inertiafit.pipeline.fit import run_fit
 from inertiafit.pipeline.information import run_information_demo
@@ -95,6 +96,8 @@ def run_demo(
     the outputs of ``inertiafit run``; ``out/paper-numbers/`` the fits of the numbers the paper
     reports (:func:`run_paper_demo`).
     """
+    check_seed(seed)
+    check_probability(hdi_prob, "hdi_prob")
     say = progress or (lambda msg: print(msg, file=sys.stderr))
     out = Path(out)
     check_out(out)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inertiafit._checks import check_positive, check_probability, check_seed
 from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.inference.fit import fit_body
@@ -106,6 +107,9 @@ def run_fit(
     :func:`~inertiafit.inference.fit.fit_body`. ``out`` is checked first
     (:func:`~inertiafit.io.outputs.check_out`).
     """
+    check_seed(seed)
+    check_probability(hdi_prob, "hdi_prob")
+    check_positive(gravity, "gravity", "m/s^2")
     check_out(out, inputs=[prior.path if isinstance(prior, Prior) else prior])
     prior_obj = load_prior(prior)
     post = fit_body(

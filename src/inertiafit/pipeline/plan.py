@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
-from inertiafit._checks import check_probability
+from inertiafit._checks import check_probability, check_seed
 from inertiafit.errors import InputError
 from inertiafit.io.outputs import check_out, guard_outputs
 from inertiafit.planning.design import design_variants
@@ -48,6 +48,7 @@ def run_plan(
     from inertiafit.io.outputs import output_folder, write_csv
     from inertiafit.plotting.style import save_figure
 
+    check_seed(seed)
     if (design_file is None) == (pilot is None):
         raise InputError("plan: give a design file or a pilot folder (one of them)")
     check_out(out, inputs=[design_file, pilot])

@@ -16,7 +16,7 @@ from typing import Any
 
 import pandas as pd
 
-from inertiafit._checks import check_probability
+from inertiafit._checks import check_probability, check_seed
 from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.inference.evidence import study_model, study_priors
@@ -163,6 +163,7 @@ def analyse_study(
         ``"skipped"``); the evidence, the speed effect and the baselines use the others.
         The posterior's ``provenance`` attribute holds :func:`study_provenance`.
     """
+    check_seed(seed)
     check_probability(hdi_prob, "hdi_prob")
     if not isinstance(study, Study):
         study = load_study(study)

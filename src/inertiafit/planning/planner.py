@@ -23,7 +23,7 @@ from typing import Any
 import pandas as pd
 
 from inertiafit import physics
-from inertiafit._checks import check_positive, check_probability
+from inertiafit._checks import check_positive, check_probability, check_seed, check_whole
 from inertiafit.errors import InputError
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
@@ -282,6 +282,9 @@ def plan(
     """
     t0 = time.perf_counter()
     check_probability(hdi_prob, "hdi_prob")
+    check_seed(seed)
+    check_whole(draws, "draws", 2)
+    check_positive(gravity, "gravity", "m/s^2")
     nominal = nominal_values(bodies)
     names = [d.name for d in designs]
     if not designs:

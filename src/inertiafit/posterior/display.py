@@ -11,6 +11,7 @@ import html
 import math
 from typing import TYPE_CHECKING, Any
 
+from inertiafit.formatting import interval
 from inertiafit.physics import UNITS
 
 if TYPE_CHECKING:
@@ -71,9 +72,9 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
     for r in table_rows(post, hdi_prob):
         p = r["parameter"]
         name = f"{p} [{UNITS[p]}]"
-        interval = f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]"
+        hdi = interval(r["hdi_lower"], r["hdi_upper"])
         lines.append(
-            f"{r['body']:<{width}}{name:<28}{r['median']:>10.4g}  {interval:<24}{r['sd']:>10.3g}  "
+            f"{r['body']:<{width}}{name:<28}{r['median']:>10.4g}  {hdi:<24}{r['sd']:>10.3g}  "
             f"{r['r_hat']:>6.3f} {r['ess_bulk']:>6.0f} {share_text(r['prior_share']):>11}  "
             f"{r['identified_by']} "
             f"({r['sd_ratio']:.2f})"
@@ -120,7 +121,7 @@ def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
                 r["parameter"],
                 UNITS[r["parameter"]],
                 f"{r['median']:.4g}",
-                f"[{r['hdi_lower']:.4g}, {r['hdi_upper']:.4g}]",
+                interval(r["hdi_lower"], r["hdi_upper"]),
                 f"{r['sd']:.3g}",
                 f"{r['r_hat']:.3f}",
                 f"{r['ess_bulk']:.0f}",

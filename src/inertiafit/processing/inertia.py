@@ -66,7 +66,18 @@ NEGATIVE_SE = 3.0
 #: Where a trial's lag comes from: estimated from the trial, or fixed by the manifest.
 LAG_SOURCES = ("estimated", "manifest")
 
-_SIGN_HINT = "torque sign: set torque_sign = -1 for this trial in the manifest"
+
+def _sign_hint(trial: xr.Dataset, torque_sign: int) -> str:
+    """What to change about the torque's sign: never the value already set."""
+    given = trial.attrs.get("torque_sign", 1)
+    if given == "motion":
+        return (
+            'torque sign: torque_sign = "motion" is set; check that the columns hold this '
+            "trial's torque and velocity"
+        )
+    if given * torque_sign == -1:
+        return "torque sign: the torque is already flipped (torque_sign = -1); set torque_sign = 1"
+    return "torque sign: set torque_sign = -1 for this trial in the manifest"
 
 
 @dataclass(frozen=True)
@@ -282,9 +293,11 @@ def estimate_inertia(
             raise InputError(
                 f"{source}: torque: inertia {value:.4g} kg m^2 is negative (the torque opposes "
                 f"the acceleration in the window {win.start:.4g} to {win.end:.4g} s); "
-                f"{_SIGN_HINT}"
+                f"{_sign_hint(trial, torque_sign)}"
             )
-        flags.append(f"negative inertia {value:.3g} +- {se:.2g} kg m^2; {_SIGN_HINT}")
+        flags.append(
+            f"negative inertia {value:.3g} +- {se:.2g} kg m^2; {_sign_hint(trial, torque_sign)}"
+        )
     clipped = saturated_run(raw_torque)
     if clipped:
         flags.append(

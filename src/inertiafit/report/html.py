@@ -13,13 +13,13 @@ import base64
 import html
 import io
 import json
-import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from inertiafit.formatting import number
 from inertiafit.report.result import Result
 from inertiafit.report.tables import (
     comparison_display,
@@ -65,15 +65,9 @@ def figure_png_base64(fig, dpi: int = 110) -> str:
 
 def table_html(frame: pd.DataFrame, digits: int = 4) -> str:
     """An HTML table with numbers rounded to ``digits`` significant figures."""
-
-    def fmt(v):
-        if isinstance(v, float):
-            return "" if math.isnan(v) else f"{v:.{digits}g}"
-        return html.escape(str(v))
-
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
     rows = "".join(
-        "<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
+        "<tr>" + "".join(f"<td>{html.escape(number(v, digits))}</td>" for v in row) + "</tr>"
         for row in frame.itertuples(index=False)
     )
     return f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"

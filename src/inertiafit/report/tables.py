@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from inertiafit.formatting import interval, mean_sd, number
 from inertiafit.io.outputs import write_csv
 from inertiafit.physics import UNITS
 
@@ -40,17 +41,8 @@ _LATEX_SPECIAL = {
 }
 
 
-def fmt(value, digits: int = 4) -> str:
-    """A number with ``digits`` significant figures; blanks for NaN and None."""
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, int | float):
-        if isinstance(value, float) and math.isnan(value):
-            return ""
-        return f"{value:.{digits}g}"
-    return str(value)
+#: The table cell of a value (:func:`inertiafit.formatting.number`), under its old name.
+fmt = number
 
 
 def to_markdown(frame: pd.DataFrame, digits: int = 4) -> str:
@@ -62,7 +54,7 @@ def to_markdown(frame: pd.DataFrame, digits: int = 4) -> str:
         "|" + "|".join("---:" if n else ":---" for n in numeric) + "|",
     ]
     for row in frame.itertuples(index=False):
-        lines.append("| " + " | ".join(fmt(v, digits).replace("|", r"\|") for v in row) + " |")
+        lines.append("| " + " | ".join(number(v, digits).replace("|", r"\|") for v in row) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -86,7 +78,7 @@ def to_latex(frame: pd.DataFrame, *, caption: str = "", label: str = "", digits:
         r"    \midrule",
     ]
     for row in frame.itertuples(index=False):
-        lines.append("    " + " & ".join(_tex(fmt(v, digits)) for v in row) + r" \\")
+        lines.append("    " + " & ".join(_tex(number(v, digits)) for v in row) + r" \\")
     lines += [r"    \bottomrule", r"  \end{tabular}", r"\end{table}"]
     return "\n".join(lines) + "\n"
 
@@ -110,7 +102,7 @@ def write_table(
 
 
 def _interval(median: float, lo: float, hi: float) -> str:
-    return f"{median:.4g} [{lo:.4g}, {hi:.4g}]"
+    return f"{median:.4g} {interval(lo, hi)}"
 
 
 def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
@@ -127,7 +119,7 @@ def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
                 )
             ],
             "mean ± sd": [
-                f"{m:.4g} ± {s:.2g}" for m, s in zip(summary["mean"], summary["sd"], strict=True)
+                mean_sd(m, s) for m, s in zip(summary["mean"], summary["sd"], strict=True)
             ],
             "R-hat": summary["r_hat"].round(3),
             "ESS bulk": summary["ess_bulk"].round(0).astype(int),
@@ -222,7 +214,7 @@ def speed_effect_display(effect: pd.DataFrame) -> pd.DataFrame:
             "speed [°/s]": rows["speed"],
             "n": rows["n"].astype(int),
             "inertia [kg m^2]": [
-                f"{m:.4g} ± {s:.2g}" for m, s in zip(rows["mean"], rows["sd"], strict=True)
+                mean_sd(m, s) for m, s in zip(rows["mean"], rows["sd"], strict=True)
             ],
             "ANOVA F": rows["F"],
             "p": rows["p"],

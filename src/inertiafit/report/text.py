@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import numpy as np
-
+from inertiafit.formatting import interval, number
 from inertiafit.report.result import Result
 
 __all__ = ["STUDY_TEXT_COLUMNS", "fit_comparison_text", "study_comparison_text"]
@@ -23,10 +22,10 @@ def fit_comparison_text(result: Result) -> str:
     ]
     for _, r in table.iterrows():
         name = f"{r.parameter} [{r.unit}]"
-        interval = f"[{r.hdi_lower:.4g}, {r.hdi_upper:.4g}]"
-        ref = "" if np.isnan(r.reference) else f"{r.reference:.4g}"
+        hdi = interval(r.hdi_lower, r.hdi_upper)
+        ref = number(r.reference)
         lines.append(
-            f"{name:<28}{r.prior_nominal:>14.4g}{r.posterior_median:>18.4g}  {interval:<22}"
+            f"{name:<28}{r.prior_nominal:>14.4g}{r.posterior_median:>18.4g}  {hdi:<22}"
             f"{r.baseline:>15.4g}  {ref}"
         )
     return "\n".join(lines)
@@ -50,6 +49,6 @@ def study_comparison_text(result: Result) -> str:
     """A study's bodies beside their ideal models and the paper's baseline."""
     table = result.comparison[STUDY_TEXT_COLUMNS]
     return (
-        table.to_string(index=False, float_format=lambda v: f"{v:.4g}")
+        table.to_string(index=False, float_format=number)
         + "\n(ideal: textbook body; baseline: the paper's multi-start least squares)"
     )

@@ -15,7 +15,11 @@ from numpy.typing import NDArray
 from inertiafit.errors import InputError
 from inertiafit.io.readers.registry import register_reader
 from inertiafit.io.readers.tables import load_table
-from inertiafit.io.readers.validation import reject_calibration, resolve_units
+from inertiafit.io.readers.validation import (
+    header_listing,
+    reject_calibration,
+    resolve_units,
+)
 from inertiafit.io.trial import magnitude_evidence, make_trial
 from inertiafit.io.units import ACCEPTED, QUANTITIES, canonical_unit, to_si
 
@@ -155,8 +159,13 @@ def read_humac(
         ]
         if not found:
             expected = columns[q] if columns and q in columns else _HUMAC_NAMES[q][0].title()
+            known = [
+                name
+                for k in QUANTITIES
+                for name in ((columns[k],) if columns and k in columns else _HUMAC_NAMES[k])
+            ]
             raise InputError(
-                f"{path}: column {expected!r} not found (columns are: {', '.join(cells)}); "
+                f"{path}: column {expected!r} not found ({header_listing(cells, known, [n for n, _ in parsed])}); "
                 f"set columns.{q} in the manifest"
             )
         wanted[q] = cells[found[0]]

@@ -10,6 +10,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
+from inertiafit.io.readers.validation import header_listing
 
 __all__ = ["load_table"]
 
@@ -72,10 +73,9 @@ def load_table(
     present = [str(c).strip() for c in frame.columns]
     for key, name in wanted.items():
         if name not in present:
-            listed = ", ".join(present)
+            listed = header_listing(present, wanted.values())
             raise InputError(
-                f"{path}: column {name!r} not found (columns are: {listed}); "
-                f"set {hint}.{key} in the manifest"
+                f"{path}: column {name!r} not found ({listed}); set {hint}.{key} in the manifest"
             )
         if present.count(name) > 1:
             raise InputError(

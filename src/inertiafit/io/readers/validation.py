@@ -10,10 +10,10 @@ Every problem is one :class:`~inertiafit.errors.InputError` line that starts wit
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
+from inertiafit._checks import check_finite
 from inertiafit.errors import InputError
 from inertiafit.io.units import QUANTITIES, canonical_unit
 
@@ -24,8 +24,8 @@ __all__ = [
     "check_calibration",
     "check_channel_table",
     "check_columns",
-    "check_number",
     "check_units",
+    "header_listing",
     "reject_calibration",
     "resolve_units",
 ]
@@ -150,10 +150,10 @@ def check_calibration(
             )
         if "scale" not in entry:
             raise InputError(f"{here}.scale: missing (value = scale x volts + offset)")
-        scale = check_number(entry["scale"], where=f"{here}.scale")
+        scale = check_finite(entry["scale"], f"{here}.scale")
         if scale == 0.0:
             raise InputError(f"{here}.scale: must be non-zero, got 0")
-        offset = check_number(entry.get("offset", 0.0), where=f"{here}.offset")
+        offset = check_finite(entry.get("offset", 0.0), f"{here}.offset")
         unit = entry.get("unit")
         if unit is not None:
             unit = canonical_unit(channel, unit, where=f"{here}.unit")
@@ -161,19 +161,34 @@ def check_calibration(
     return out
 
 
-def check_number(value: object, *, where: str) -> float:
-    """Return ``value`` as a float if it is a finite int or float (not a bool).
+#: Header cells shown at most in a message about a missing column, and characters per cell.
+HEADER_CELLS_SHOWN = 20
+HEADER_CELL_CHARS = 40
 
-    Raises
-    ------
-    InputError
-        ``"<where>: expected a number, got ..."`` or ``"... a finite number ..."``.
+
+def header_listing(
+    cells: Sequence[str], known: Iterable[str], names: Sequence[str] | None = None
+) -> str:
+    """The header of a file, for a message about a column it lacks.
+
+    Only a file whose header names at least one of the ``known`` columns (a trial with a
+    column misnamed) has its header shown, cut to :data:`HEADER_CELLS_SHOWN` cells of
+    :data:`HEADER_CELL_CHARS` characters; any other file is not a trial, and its content is
+    never echoed into a message (it may be any file the manifest points at). ``names``: the
+    cells' column names, if a cell holds more (``Time(Seconds)``: ``time``).
     """
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{where}: expected a number, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: expected a finite number, got {value!r}")
-    return float(value)
+    expected = [str(k).strip() for k in known]
+    lowered = {n.lower() for n in expected}
+    if not any(str(c).strip().lower() in lowered for c in (cells if names is None else names)):
+        return (
+            f"its first line names none of the columns {', '.join(expected)}: is it a trial file?"
+        )
+    shown = [
+        c if len(c) <= HEADER_CELL_CHARS else c[: HEADER_CELL_CHARS - 3] + "..."
+        for c in (str(c) for c in cells[:HEADER_CELLS_SHOWN])
+    ]
+    more = f", ... ({len(cells)} columns)" if len(cells) > HEADER_CELLS_SHOWN else ""
+    return f"columns are: {', '.join(shown)}{more}"
 
 
 def reject_calibration(path: Path, calibration: object, format: str) -> None:
