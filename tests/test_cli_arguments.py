@@ -185,12 +185,12 @@ def test_a_scheduler_that_is_not_an_address_is_one_line_and_no_traceback(tmp_pat
 
 
 def _api_cases():
+    from inertiafit import Design, Mounting, plan
     from inertiafit.inference.fit import fit_body
     from inertiafit.inference.observations import Observation
     from inertiafit.inference.priors import Prior, load_prior
     from inertiafit.inference.reference import reference_posterior
     from inertiafit.inference.sampler import SamplerSettings
-    from inertiafit import Design, Mounting, plan
 
     disk = {"inertia_se": 0.01, "gravity_moment": 12.8, "gravity_moment_se": 0.05}
     gauss = math.inf

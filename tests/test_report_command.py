@@ -200,3 +200,21 @@ def test_report_rejects_a_foreign_trials_table(study_out, tmp_path, capsys):
     pd.read_csv(copy / "trials.csv").drop(columns=["inertia"]).to_csv(copy / "trials.csv")
     assert main(["report", str(copy)]) == 2
     assert "trials.csv: column 'inertia' missing" in capsys.readouterr().err
+
+
+def test_report_refuses_a_truncated_traces_table(study_out, tmp_path, capsys):
+    # A traces.csv cut short keeps its columns and was redrawn without a word; the marker lists
+    # the size inertiafit wrote, and report holds the data files to it.
+    copy = tmp_path / "copy"
+    shutil.copytree(study_out, copy)
+    lines = (copy / "traces.csv").read_text().splitlines(keepends=True)
+    (copy / "traces.csv").write_text("".join(lines[: len(lines) // 2]))
+    before = {p.name: p.read_bytes() for p in copy.iterdir() if p.is_file()}
+    assert main(["report", str(copy)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert re.fullmatch(
+        r"inertiafit: error: \S+/traces\.csv: \d+ bytes where inertiafit wrote \d+: changed or "
+        r"truncated since it was written; rerun the analysis to rebuild it",
+        err,
+    ), err
+    assert {p.name: p.read_bytes() for p in copy.iterdir() if p.is_file()} == before

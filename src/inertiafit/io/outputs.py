@@ -54,6 +54,7 @@ from inertiafit.errors import InputError
 
 __all__ = [
     "MARKER",
+    "check_as_written",
     "check_out",
     "check_replaceable",
     "guard_outputs",
@@ -109,6 +110,28 @@ def _read_marker(folder: Path) -> dict[str, int | None] | None:
 def _write_marker(folder: Path, files: dict[str, int | None]) -> None:
     doc = {"about": _ABOUT, "files": dict(sorted(files.items()))}
     (folder / MARKER).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+
+
+def check_as_written(folder: str | Path, names: Iterable[str]) -> None:
+    """Refuse a data file of an output folder whose size is not the one its marker lists.
+
+    ``inertiafit report`` redraws figures and tables from the data files of a folder; a
+    truncated or edited ``traces.csv`` would be drawn without a word. A file the marker does not
+    list (a folder of an older inertiafit, a file never written) is not checked.
+    """
+    folder = Path(folder)
+    listed = _read_marker(folder) or {}
+    for name in names:
+        path = folder / name
+        expected = listed.get(name)
+        if expected is None or not path.is_file():
+            continue
+        size = path.stat().st_size
+        if size != expected:
+            raise InputError(
+                f"{path}: {size} bytes where inertiafit wrote {expected}: changed or truncated "
+                "since it was written; rerun the analysis to rebuild it"
+            )
 
 
 def check_replaceable(out: str | Path) -> None:

@@ -17,7 +17,7 @@ import pandas as pd
 from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
 from inertiafit.inference.priors import Prior, priors_from_posterior
-from inertiafit.io.outputs import replace_files
+from inertiafit.io.outputs import check_as_written, replace_files
 from inertiafit.pipeline.fit import fit_result
 from inertiafit.pipeline.study import paper_baselines
 from inertiafit.plotting.style import check_formats
@@ -85,6 +85,7 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
     trials["flags"] = trials["flags"].fillna("").astype(str)
     used = usable_trials(trials)
     traces = _read_table(folder / "traces.csv", TRACE_COLUMNS, {"condition": str})
+    check_as_written(folder, ("posterior.nc", "trials.csv", "traces.csv"))
     warnings = list(inputs.get("warnings", []))
     baselines = paper_baselines(trials, conditions, priors, gravity=gravity, notes=warnings)
     return make_result(
