@@ -182,15 +182,17 @@ def build_parser() -> argparse.ArgumentParser:
         description="Read every trial of STUDY (a TOML manifest), fit the gravity model of each "
         "condition, estimate the inertia of every fast trial, test the speed effect, sample the "
         "joint posterior over every body and write trials.csv, speed_effect.csv, summary.csv, "
-        "identification.csv, comparison.csv, posterior.nc, corner-<body>.pdf/.png, "
-        "fast-trials-<condition>.pdf/.png, inertia-by-speed.pdf/.png and report.html into --out.",
+        "identification.csv, comparison.csv, posterior.nc, corner-<body>.png, "
+        "fast-trials-<condition>.png, inertia-by-speed.png (and .pdf with --formats png,pdf) "
+        "and report.html into --out.",
     )
     run.add_argument("study", type=Path, metavar="STUDY", help="the study manifest (TOML)")
     _add_common(run, "inertiafit-output")
     run.add_argument(
         "--formats",
-        default="pdf,png",
-        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+        default="png",
+        help="figure formats, comma-separated from pdf,png,svg (default png; png,pdf adds "
+        "vector PDFs)",
     )
 
     many = sub.add_parser(
@@ -243,8 +245,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     many.add_argument(
         "--formats",
-        default="pdf,png",
-        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+        default="png",
+        help="figure formats, comma-separated from pdf,png,svg (default png; png,pdf adds "
+        "vector PDFs)",
     )
 
     demo = sub.add_parser(
@@ -267,8 +270,9 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("folder", type=Path, metavar="DIR", help="an output folder")
     report.add_argument(
         "--formats",
-        default="pdf,png",
-        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+        default="png",
+        help="figure formats, comma-separated from pdf,png,svg (default png; png,pdf adds "
+        "vector PDFs)",
     )
     report.add_argument(
         "--hdi-prob",

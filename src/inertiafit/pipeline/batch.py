@@ -53,7 +53,7 @@ from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
 from inertiafit.io.outputs import MARKER, check_replaceable, output_folder
 from inertiafit.pipeline.study import run_study
-from inertiafit.plotting.style import check_formats
+from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 
 #: Columns of ``batch.csv``.
 BATCH_COLUMNS = [
@@ -437,7 +437,7 @@ def run_many(
     workers: int | None = None,
     seed: int = 0,
     hdi_prob: float = 0.95,
-    formats: Sequence[str] = ("pdf", "png"),
+    formats: Sequence[str] = DEFAULT_FORMATS,
     echo: Callable[[str], None] | None = None,
     connect_timeout: float = 10.0,
 ) -> BatchResult:
