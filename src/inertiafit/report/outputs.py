@@ -11,7 +11,7 @@ import multiprocessing
 import os
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from inertiafit.io.outputs import write_csv
@@ -79,15 +79,20 @@ def draw_figures(
     formats: tuple[str, ...],
     *,
     workers: int | None = None,
+    meanwhile: Callable[[], None] | None = None,
 ) -> dict[str, bytes]:
     """Save every record's figure into ``folder``; the PNG of each for report.html, by stem.
 
     With more than one worker the figures are drawn in forked processes (each a whole
     figure: drawn, saved, released), in the order given; a figure's files are the same bytes
     whichever process draws it. ``workers`` defaults to :data:`FIGURE_WORKERS`.
+    ``meanwhile`` is called in this process while the workers draw (with one worker: before
+    the figures are drawn).
     """
     count = _worker_count(len(records), workers)
     if count == 1:
+        if meanwhile is not None:
+            meanwhile()
         return {r.stem: _draw(r, folder, formats) for r in records}
     from concurrent.futures import ProcessPoolExecutor
 
@@ -95,12 +100,19 @@ def draw_figures(
     try:
         with warnings.catch_warnings():
             # Python warns that fork() in a process with threads (BLAS's idle pool) may
-            # deadlock the child; the workers only draw with Matplotlib (no BLAS call waits
-            # on a thread of the parent's).
+            # deadlock the child; OpenBLAS starts its pool afresh in a forked child, and the
+            # workers only draw and save figures.
             warnings.simplefilter("ignore", DeprecationWarning)
             context = multiprocessing.get_context("fork")
             with ProcessPoolExecutor(count, mp_context=context) as pool:
-                pngs = list(pool.map(_draw_queued, range(len(records))))
+                futures = [pool.submit(_draw_queued, i) for i in range(len(records))]
+                try:
+                    if meanwhile is not None:
+                        meanwhile()
+                    pngs = [f.result() for f in futures]
+                except BaseException:
+                    pool.shutdown(cancel_futures=True)
+                    raise
     finally:
         _QUEUE.clear()
     return {r.stem: png for r, png in zip(records, pngs, strict=True)}
@@ -159,16 +171,22 @@ def write_outputs(
     """
     hdi_prob = result.hdi_prob if hdi_prob is None else hdi_prob
     before = {p.name for p in folder.iterdir()}
-    write_tables(folder, result, hdi_prob=hdi_prob)
-    if save_data:
-        result.posterior.save(folder / "posterior.nc")
-        if len(result.trials):
-            write_csv(result.trials, folder / "trials.csv")
-        if len(result.traces):
-            write_csv(result.traces, folder / "traces.csv")
-    # One figure at a time per process: drawn, saved, its PNG kept for report.html, let go.
+
+    def tables_and_data() -> None:
+        write_tables(folder, result, hdi_prob=hdi_prob)
+        if save_data:
+            result.posterior.save(folder / "posterior.nc")
+            if len(result.trials):
+                write_csv(result.trials, folder / "trials.csv")
+            if len(result.traces):
+                write_csv(result.traces, folder / "traces.csv")
+
+    # One figure at a time per process: drawn, saved, its PNG kept for report.html, let go;
+    # the tables and data files are written here while worker processes draw.
     records = figure_records(result)
-    embedded = draw_figures(records, folder, tuple(formats), workers=workers)
+    embedded = draw_figures(
+        records, folder, tuple(formats), workers=workers, meanwhile=tables_and_data
+    )
     study_report(folder / "report.html", result, embedded, hdi_prob, records)
     return sorted({p.name for p in folder.iterdir()} - before)
 
