@@ -20,7 +20,7 @@ import pandas as pd
 from common import best_of, standalone, table
 from scipy import signal
 
-TARGET = 3.0
+TARGET = 2.0
 
 
 def floor(files: list[Path], rate: float = 1000.0) -> int:
@@ -56,7 +56,9 @@ def stage_profile(manifest: Path) -> list[dict]:
         "  make_trial (xarray Dataset, checks)": ("trial.py", ("make_trial",)),
         "fit_gravity (quasi-static)": ("gravity.py", ("fit_gravity",)),
         "estimate_inertia (fast)": ("inertia.py", ("estimate_inertia",)),
-        "  low-pass + acceleration": ("filtering.py", ("lowpass", "lowpass_arrays")),
+        "  low-pass (torque, velocity, sin, cos)": ("filtering.py", ("lowpass_rows",)),
+        "  acceleration (spectral derivative)": ("filtering.py", ("derivative",)),
+        "  lag (estimate_lag)": ("lag.py", ("estimate_lag",)),
         "  sosfiltfilt": ("_signaltools.py", ("sosfiltfilt",)),
         "  find_window_arrays": ("window.py", ("find_window", "find_window_arrays")),
         "  integrated_autocorrelation_time": ("gravity.py", ("integrated_autocorrelation_time",)),

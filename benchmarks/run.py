@@ -2,7 +2,7 @@
 
 1. sampler      inertiafit's sampler vs plain emcee (ESS/s, tau, accuracy vs quadrature)
 2. peer_pymc    PyMC's NUTS on the same model (optional: skipped when PyMC is missing)
-3. processing   process_study vs reading the CSVs + sosfiltfilt (target <= 3x)
+3. processing   process_study vs reading the CSVs + sosfiltfilt (target <= 2x)
 4. end_to_end   `inertiafit run` vs the cold-import floor (target <= 4x, < 400 MB)
 5. scaling      K segments in one study; a batch of small studies
 6. batch        run-many: a batch serially vs a local Dask cluster of 2 workers (target >= 1.6x)

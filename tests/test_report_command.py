@@ -1,5 +1,7 @@
 """inertiafit report: redraw tables, figures and report.html from saved results."""
 
+import functools
+import html
 import re
 import shutil
 
@@ -7,8 +9,13 @@ import pandas as pd
 import pytest
 
 from inertiafit.cli import main
+from inertiafit.pipeline.redraw import load_result
 from inertiafit.posterior import SUMMARY_COLUMNS, open_posterior
 from inertiafit.processing.study import TRIAL_COLUMNS
+from inertiafit.report import figures as figures_module
+from inertiafit.report import outputs as outputs_module
+from inertiafit.report import plots
+from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.simulate import simulate_study
 
 TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
@@ -79,13 +86,78 @@ def test_run_writes_tables_in_three_formats_and_the_paper_figures(study_out):
         "fast-trials-attachment",
         "inertia-by-speed",
     ):
-        assert (study_out / f"{stem}.pdf").is_file(), stem
         assert (study_out / f"{stem}.png").is_file(), stem
+        assert not (study_out / f"{stem}.pdf").exists(), stem  # PDF where asked (--formats)
     comp = pd.read_csv(study_out / "comparison.csv").set_index(["body", "parameter"])
     # the disk's ideal values lie inside the posterior intervals (its rho is prior-decided)
     for p in ("mass", "com_distance", "radius_of_gyration", "inertia"):
         assert bool(comp.loc[("weight", p), "ideal_in_hdi"]), p
     assert comp.loc[("weight", "mass"), "baseline"] == pytest.approx(2.92, rel=0.03)
+
+
+def missing_figures(folder, records, ext="png"):
+    """Records whose file is not in ``folder`` or whose image is not in its report.html."""
+    page = (folder / "report.html").read_text()
+    shown = set(re.findall(r"<img alt='([^']*)'", page))
+    return [
+        r.stem
+        for r in records
+        if not (folder / f"{r.stem}.{ext}").is_file() or html.escape(r.caption) not in shown
+    ]
+
+
+def test_every_registered_figure_is_written_and_shown_in_report_html(study_out, tmp_path):
+    records = figure_records(load_result(study_out))
+    assert len(records) == 12
+    assert len({r.stem for r in records}) == len(records)
+    assert missing_figures(study_out, records) == []
+    page = (study_out / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == len(records)
+    # in the order of the sections that show them
+    order = [page.index(f"<img alt='{html.escape(r.caption)}'") for r in records]
+    assert order == sorted(order)
+    # negative control: a record added to the registry after the folder was written is missing
+    extra = FigureRecord("new-figure", lambda: None, "Diagnostics", "a new figure")
+    assert missing_figures(study_out, [*records, extra]) == ["new-figure"]
+
+
+def test_a_figure_registered_once_is_saved_and_embedded(study_out, tmp_path, monkeypatch):
+    # one registration is all a new figure needs: the writer saves it, report.html shows it
+    def with_extra(result):
+        post = result.posterior
+        extra = FigureRecord(
+            "extra-rank",
+            functools.partial(plots.plot_rank, post, post.bodies[0]),
+            "Diagnostics",
+            "an extra figure registered once",
+        )
+        return [*records_of(result), extra]
+
+    records_of = figures_module.figure_records
+    monkeypatch.setattr(outputs_module, "figure_records", with_extra)
+    result = load_result(study_out)
+    folder = tmp_path / "out"
+    folder.mkdir()
+    outputs_module.write_outputs(folder, result, save_data=False, workers=1)
+    records = with_extra(result)
+    assert missing_figures(folder, records) == []
+    assert "an extra figure registered once" in (folder / "report.html").read_text()
+
+
+def test_figures_drawn_in_worker_processes_are_the_same_files(study_out, tmp_path):
+    result = load_result(study_out)
+    records = figure_records(result)[:3]
+    serial, forked = tmp_path / "serial", tmp_path / "forked"
+    serial.mkdir()
+    forked.mkdir()
+    one = outputs_module.draw_figures(records, serial, ("png", "pdf"), workers=1)
+    two = outputs_module.draw_figures(records, forked, ("png", "pdf"), workers=2)
+    assert one == two
+    for r in records:
+        for ext in ("png", "pdf"):
+            assert (serial / f"{r.stem}.{ext}").read_bytes() == (
+                forked / f"{r.stem}.{ext}"
+            ).read_bytes()
 
 
 def test_report_redraws_without_sampling(study_out, capsys):

@@ -99,8 +99,9 @@ def _add_formats(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--formats",
         type=_formats,
-        default="pdf,png",
-        help="figure formats, comma-separated from pdf,png,svg (default pdf,png)",
+        default="png",
+        help="figure formats, comma-separated from pdf,png,svg (default png; png,pdf adds "
+        "vector PDFs)",
     )
 
 
@@ -286,8 +287,9 @@ class _Run(_Command):
         "Read every trial of STUDY (a TOML manifest), fit the gravity model of each condition, "
         "estimate the inertia of every fast trial, test the speed effect, sample the joint "
         "posterior over every body and write trials.csv, speed_effect.csv, summary.csv, "
-        "identification.csv, comparison.csv, posterior.nc, corner-<body>.pdf/.png, "
-        "fast-trials-<condition>.pdf/.png, inertia-by-speed.pdf/.png and report.html into --out."
+        "identification.csv, comparison.csv, posterior.nc, corner-<body>.png, "
+        "fast-trials-<condition>.png, inertia-by-speed.png (and .pdf with --formats png,pdf) "
+        "and report.html into --out."
     )
 
     @staticmethod

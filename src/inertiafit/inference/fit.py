@@ -7,6 +7,7 @@ packages the draws, the evidence, the prior and the provenance as an ArviZ DataT
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from importlib.metadata import version
@@ -28,6 +29,13 @@ N_PRIOR_DRAWS = 4000
 
 
 def _versions() -> dict[str, str]:
+    return dict(_installed_versions())
+
+
+@functools.cache
+def _installed_versions() -> dict[str, str]:
+    # Reading the installed packages' metadata costs a tenth of a small fit; they do not
+    # change while the process runs.
     out = {}
     for pkg in ("inertiafit", "emcee", "arviz", "numpy", "scipy", "xarray"):
         try:

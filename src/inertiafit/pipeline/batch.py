@@ -54,7 +54,7 @@ from inertiafit.errors import InputError
 from inertiafit.io.manifest import load_study
 from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder
 from inertiafit.pipeline.study import run_study, study_inputs
-from inertiafit.plotting.style import check_formats
+from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 
 #: Columns of ``batch.csv``.
 BATCH_COLUMNS = [
@@ -463,7 +463,7 @@ def run_many(
     workers: int | None = None,
     seed: int = 0,
     hdi_prob: float = 0.95,
-    formats: Sequence[str] = ("pdf", "png"),
+    formats: Sequence[str] = DEFAULT_FORMATS,
     echo: Callable[[str], None] | None = None,
     connect_timeout: float = 10.0,
 ) -> BatchResult:

@@ -20,7 +20,7 @@ from inertiafit.inference.priors import Prior, priors_from_posterior
 from inertiafit.io.outputs import check_as_written, replace_files
 from inertiafit.pipeline.fit import fit_result
 from inertiafit.pipeline.study import paper_baselines
-from inertiafit.plotting.style import check_formats
+from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior, open_posterior
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import TRACE_COLUMNS, TRIAL_COLUMNS, usable_trials
@@ -127,7 +127,7 @@ def _fit_result(
 def redraw(
     folder: str | Path,
     *,
-    formats: tuple[str, ...] | list[str] = ("pdf", "png"),
+    formats: tuple[str, ...] | list[str] = DEFAULT_FORMATS,
     hdi_prob: float = 0.95,
     echo: Callable[[str], None] = print,
 ) -> Result:

@@ -25,6 +25,7 @@ from inertiafit.inference.priors import Prior
 from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
+from inertiafit.plotting.style import DEFAULT_FORMATS
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
     ProcessedStudy,
@@ -214,7 +215,7 @@ def run_study(
     out: str | Path,
     seed: int = 0,
     hdi_prob: float = 0.95,
-    formats: tuple[str, ...] = ("pdf", "png"),
+    formats: tuple[str, ...] = DEFAULT_FORMATS,
     echo: Callable[[str], None] = print,
     progress: Callable[[str], None] | None = None,
 ) -> Result:

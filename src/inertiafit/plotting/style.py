@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
+    "DEFAULT_FORMATS",
     "DOUBLE_COLUMN",
     "FIGURE_FORMATS",
     "PALETTE",
@@ -78,6 +79,10 @@ PRIOR_COLOUR = "0.35"
 
 #: Every format a figure can be written in: vector PDF and SVG, raster PNG.
 FIGURE_FORMATS = ("pdf", "png", "svg")
+#: The formats the commands write a result's figures in unless asked for others
+#: (``--formats png,pdf``): PNG, which report.html embeds. Vector PDF costs twice the PNG's
+#: time per figure, so it is written where asked.
+DEFAULT_FORMATS: tuple[str, ...] = ("png",)
 
 
 def check_formats(formats: str | Iterable[str], where: str = "formats") -> tuple[str, ...]:

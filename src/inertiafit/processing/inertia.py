@@ -40,8 +40,8 @@ from inertiafit.io.trial import apply_torque_sign
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
-    lowpass_array,
-    lowpass_arrays,
+    derivative,
+    lowpass_rows,
     sampling_rate,
     source_of,
 )
@@ -224,17 +224,19 @@ def estimate_inertia(
     raw_torque = torque_sign * trial["torque"].values
     raw_velocity = trial["velocity"].values
     angle = trial["angle"].values
-    torque_f, velocity_f, alpha_f = lowpass_arrays(
-        time, raw_torque, raw_velocity, rate, cutoff=cutoff, order=order, source=source
-    )
     # The gravity model A sin(theta) + B cos(theta) + C (= gravity.torque) passes through
     # exactly the filter the torque does: by linearity the same as filtering the torque minus
-    # the model. A filtered constant is the constant.
-    terms = [
-        lowpass_array(np.sin(angle), rate, cutoff=cutoff, order=order, source=source),
-        lowpass_array(np.cos(angle), rate, cutoff=cutoff, order=order, source=source),
-        np.ones_like(time, dtype=np.float64),
-    ]
+    # the model. A filtered constant is the constant. The four channels go through the filter
+    # in one call (each row's numbers are those of a call of its own).
+    torque_f, velocity_f, sin_f, cos_f = lowpass_rows(
+        np.stack([raw_torque, raw_velocity, np.sin(angle), np.cos(angle)]),
+        rate,
+        cutoff=cutoff,
+        order=order,
+        source=source,
+    )
+    alpha_f = derivative(velocity_f, time)
+    terms = [sin_f, cos_f, np.ones_like(time, dtype=np.float64)]
     coefficients = gravity_coefficients(gravity)
     gravity_f = sum((c * term for c, term in zip(coefficients, terms, strict=True)), start=0.0)
     flags: list[str] = []

@@ -189,12 +189,18 @@ def _move(velocity: NDArray, rate: float, margin: int) -> tuple[int, int]:
 
 
 def _ssr_whole(
-    torque: NDArray, target: NDArray, basis: NDArray, lo: int, hi: int, shift: int
-) -> float:
-    """The residual sum of squares for an advance of ``shift`` whole samples."""
-    y = torque[lo + shift : hi + shift] - target
-    r = y - basis @ (basis.T @ y)
-    return float(r @ r)
+    torque: NDArray, target: NDArray, basis: NDArray, lo: int, hi: int, shifts: NDArray
+) -> NDArray:
+    """The residual sums of squares for advances of ``shifts`` whole samples, all at once.
+
+    One matrix product for the grid instead of a projection per point (the grid only picks
+    the bracket of the refined minimum, so these sums need not match :func:`estimate_lag`'s
+    ``ssr`` to the last digit).
+    """
+    windows = np.lib.stride_tricks.sliding_window_view(torque, hi - lo)[lo + shifts]
+    y = windows - target
+    r = y - (y @ basis) @ basis.T
+    return np.einsum("ij,ij->i", r, r)
 
 
 def estimate_lag(
@@ -288,9 +294,11 @@ def estimate_lag(
     if points[-1][0] < hi_bound:
         points.append((hi_bound, None))
     grid = np.array([g for g, _ in points])
-    values = np.array(
-        [ssr(g) if m is None else _ssr_whole(tau, target, basis, lo, hi, m) for g, m in points]
-    )
+    whole = [i for i, (_, m) in enumerate(points) if m is not None]
+    values = np.array([ssr(g) if m is None else math.nan for g, m in points])
+    if whole:
+        shifts = np.array([points[i][1] for i in whole], dtype=np.intp)
+        values[whole] = _ssr_whole(tau, target, basis, lo, hi, shifts)
     best = int(np.argmin(values))
     bracket = (float(grid[max(best - 1, 0)]), float(grid[min(best + 1, grid.size - 1)]))
     xatol = XATOL

@@ -231,10 +231,12 @@ def condition_gravity(trials: pd.DataFrame) -> dict[str, float]:
     return out
 
 
-def _trace(condition: str, number: int, time, est: InertiaEstimate, speed: float) -> pd.DataFrame:
+def _trace(condition: str, number: int, time, est: InertiaEstimate, speed: float) -> dict:
     """The moving part of a fast trial for plotting: its filtered velocity and acceleration.
 
-    They are the ones the inertia was estimated from (the same zero-lag filter).
+    They are the ones the inertia was estimated from (the same zero-lag filter). Columns
+    (:data:`TRACE_COLUMNS`) as arrays: :func:`_traces` makes one frame of all trials (a
+    frame per trial, concatenated, costs more than the rest of a fast trial's processing).
     """
     v, a = np.asarray(est.velocity), np.asarray(est.acceleration)
     moving = np.flatnonzero(np.abs(v) > 0.02 * np.max(np.abs(v)))
@@ -243,18 +245,24 @@ def _trace(condition: str, number: int, time, est: InertiaEstimate, speed: float
     sl = slice(lo, hi, step)
     sign = 1.0 if np.median(v[lo:hi]) >= 0 else -1.0  # plot every move as positive
     n = len(time[sl])
+    return {
+        "condition": np.full(n, condition, dtype=object),
+        "trial": np.full(n, number),
+        "speed": np.full(n, speed),
+        "window_start": np.full(n, est.window_start),
+        "window_end": np.full(n, est.window_end),
+        "time": time[sl],
+        "velocity": sign * v[sl],
+        "acceleration": sign * a[sl],
+    }
+
+
+def _traces(parts: list[dict]) -> pd.DataFrame:
+    """One frame of the traces of every fast trial, in order."""
+    if not parts:
+        return pd.DataFrame(columns=TRACE_COLUMNS)
     return pd.DataFrame(
-        {
-            "condition": [condition] * n,
-            "trial": np.full(n, number),
-            "speed": np.full(n, speed),
-            "window_start": np.full(n, est.window_start),
-            "window_end": np.full(n, est.window_end),
-            "time": time[sl],
-            "velocity": sign * v[sl],
-            "acceleration": sign * a[sl],
-        },
-        columns=TRACE_COLUMNS,
+        {c: np.concatenate([p[c] for p in parts]) for c in TRACE_COLUMNS}, columns=TRACE_COLUMNS
     )
 
 
@@ -335,7 +343,7 @@ def process_study(
     }
     _check_phases(study, gravity, notes)
     say("estimating the inertia of each fast trial")
-    traces: list[pd.DataFrame] = []
+    traces: list[dict] = []
     count: dict[str, int] = {}
     used_fast: dict[str, list[InertiaEstimate]] = {}
     fast_estimates: list[tuple[TrialSpec, InertiaEstimate]] = []
@@ -396,9 +404,7 @@ def process_study(
         study=study,
         trials=trials,
         gravity=gravity,
-        traces=pd.concat(traces, ignore_index=True)
-        if traces
-        else pd.DataFrame(columns=TRACE_COLUMNS),
+        traces=_traces(traces),
         warnings=list(dict.fromkeys(notes)),  # a reader flag a later step repeats: once
         skipped=pd.DataFrame([run.skipped[i] for i in sorted(run.skipped)], columns=TRIAL_COLUMNS),
         provenance=[run.provenance[t.index] for t in study.trials],

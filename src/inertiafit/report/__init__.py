@@ -5,6 +5,8 @@
   the paper's estimator);
 - :mod:`~inertiafit.report.tables`: CSV, Markdown and LaTeX tables;
 - :mod:`~inertiafit.report.plots`: the study's and posterior's figures;
+- :mod:`~inertiafit.report.figures`: every figure of a result as a record (file stem, drawing
+  function, section and caption in ``report.html``), read by the file writer and the page;
 - :mod:`~inertiafit.report.html`: the self-contained ``report.html``;
 - :mod:`~inertiafit.report.text`: comparison tables for the terminal;
 - :mod:`~inertiafit.report.outputs`: every output file of a result into a folder.

@@ -13,13 +13,14 @@ import base64
 import html
 import io
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
 from inertiafit.formatting import number
+from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.report.result import Result
 from inertiafit.report.tables import (
     comparison_display,
@@ -218,8 +219,31 @@ def write_report(
     return path
 
 
-def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob: float) -> Path:
-    """The self-contained ``report.html``: tables, embedded figures, diagnostics, provenance."""
+def study_report(
+    path: Path,
+    result: Result,
+    figures: Mapping[str, bytes],
+    hdi_prob: float,
+    records: Sequence[FigureRecord] | None = None,
+) -> Path:
+    """The self-contained ``report.html``: tables, embedded figures, diagnostics, provenance.
+
+    ``figures`` holds the PNG of each figure by stem; ``records`` (default
+    :func:`~inertiafit.report.figures.figure_records` of ``result``) says where each goes and
+    its caption. Every record with a PNG is shown: in its section, or, if the page has no
+    such section for this result, in a last section "Other figures".
+    """
+    records = figure_records(result) if records is None else records
+    placed: set[str] = set()
+
+    def figs(section: str) -> list[tuple[str, bytes]]:
+        items = []
+        for record in records:
+            if record.section == section and record.stem in figures:
+                items.append((record.caption, figures[record.stem]))
+                placed.add(record.stem)
+        return items
+
     post = result.posterior
     a = post.attrs
     diag = (
@@ -233,7 +257,6 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
         )
     )
     summary = post.summary(hdi_prob)
-    fig = lambda stem, caption: [(caption, figures[stem])] if stem in figures else []
     skipped = skipped_trials(result.trials)
     sections: list[tuple[str, list]] = []
     if len(skipped):
@@ -293,21 +316,7 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
                 comparison_display(result.comparison, hdi_prob),
             ],
         ),
-        (
-            "Corner plots",
-            [
-                *[
-                    item
-                    for b in post.bodies
-                    for item in fig(
-                        "corner" if result.from_numbers else f"corner-{b}",
-                        f"{b}: axes of m, x and rho span the prior box"
-                        + ("; lines: ideal body" if b in result.ideals else ""),
-                    )
-                ],
-                *fig("corner-joint", "all bodies together"),
-            ],
-        ),
+        ("Corner plots", figs("Corner plots")),
         (
             "Identification curves",
             [
@@ -315,15 +324,7 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
                     "Rotation about one axis identifies only m x = M_g/g and I = m (rho^2 + x^2): the "
                     "bodies that fit the data lie on a curve; the prior box decides where on it."
                 ),
-                *[
-                    item
-                    for b in post.bodies
-                    for item in fig(
-                        f"identification-{b}",
-                        f"{b}: posterior draws, the curve at the posterior "
-                        "medians, the prior box and the paper's per-start solutions",
-                    )
-                ],
+                *figs("Identification curves"),
             ],
         ),
     ]
@@ -332,16 +333,7 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
             (
                 "Trials",
                 [
-                    *[
-                        item
-                        for c in result.conditions
-                        for item in fig(
-                            f"fast-trials-{c}",
-                            f"{c}: filtered velocity and acceleration of the fast "
-                            "trials; shaded: the detected uniform-acceleration window",
-                        )
-                    ],
-                    *fig("inertia-by-speed", "inertia per trial and speed (mean ± SD)"),
+                    *figs("Trials"),
                     *(
                         []
                         if len(result.traces)
@@ -365,16 +357,16 @@ def study_report(path: Path, result: Result, figures: dict[str, bytes], hdi_prob
             [
                 diag,
                 post.identification(),
-                *[
-                    item
-                    for b in post.bodies
-                    for item in fig(f"trace-{b}", f"{b}: walker traces")
-                    + fig(f"rank-{b}", f"{b}: rank plots")
-                ],
+                *figs("Diagnostics"),
                 *(["warn:" + w for w in result.warnings] or ["No trial flags."]),
             ],
         )
     )
+    others = [
+        (r.caption, figures[r.stem]) for r in records if r.stem in figures and r.stem not in placed
+    ]
+    if others:
+        sections.append(("Other figures", others))
     notes = {
         "study": result.name,
         "manifest": result.manifest,

@@ -7,16 +7,19 @@
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable
+import multiprocessing
+import os
+import sys
+import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 from inertiafit.io.outputs import write_csv
-from inertiafit.processing.study import usable_trials
+from inertiafit.plotting.style import DEFAULT_FORMATS
 from inertiafit.report import plots
+from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.report.html import figure_png, study_report
-from inertiafit.report.result import Result, traces_by_condition
+from inertiafit.report.result import Result
 from inertiafit.report.tables import (
     comparison_display,
     speed_effect_display,
@@ -24,45 +27,95 @@ from inertiafit.report.tables import (
     write_table,
 )
 
-__all__ = ["DATA_FILES", "figure_makers", "write_fit_outputs", "write_outputs", "write_tables"]
+__all__ = [
+    "DATA_FILES",
+    "FIGURE_WORKERS",
+    "draw_figures",
+    "write_fit_outputs",
+    "write_outputs",
+    "write_tables",
+]
 
 #: Files written once, when the posterior is sampled; redrawing a report reads them.
 DATA_FILES = ("posterior.nc", "trials.csv", "traces.csv")
 
 
-def _corner_stem(result: Result, body: str) -> str:
-    return "corner" if result.from_numbers else f"corner-{body}"
+#: Figures are drawn and saved in up to this many forked processes (Linux; one where fork is
+#: unavailable, in a daemonic process such as a Dask worker, or on one core).
+FIGURE_WORKERS = 2
+
+# The figures a pool of forked workers draws, by index: set before the pool forks, so the
+# workers inherit the records (their draw functions need not be pickled).
+_QUEUE: list[tuple[FigureRecord, Path, tuple[str, ...]]] = []
 
 
-def figure_makers(result: Result) -> dict[str, Callable[[], Any]]:
-    """The result's figures by file stem, each as a function that draws it.
+def _draw(record: FigureRecord, folder: Path, formats: tuple[str, ...]) -> bytes:
+    """Draw, save and release one figure; its PNG for report.html."""
+    fig = record.make()
+    wanted = record.formats_of(formats)
+    if wanted:
+        plots.save_figure(fig, folder / record.stem, wanted, dpi=150)
+    # Embed the PNG just written rather than drawing the figure once more.
+    return (folder / f"{record.stem}.png").read_bytes() if "png" in wanted else figure_png(fig)
 
-    Drawing one figure at a time, saving and dropping it, keeps one figure in memory rather
-    than all of them.
+
+def _draw_queued(index: int) -> bytes:
+    return _draw(*_QUEUE[index])
+
+
+def _worker_count(figures: int, workers: int | None) -> int:
+    if workers is None:
+        workers = FIGURE_WORKERS
+    if workers < 2 or figures < 2 or not sys.platform.startswith("linux"):
+        return 1
+    if multiprocessing.current_process().daemon:  # may not have children (a Dask worker)
+        return 1
+    return min(workers, figures, len(os.sched_getaffinity(0)))
+
+
+def draw_figures(
+    records: Sequence[FigureRecord],
+    folder: Path,
+    formats: tuple[str, ...],
+    *,
+    workers: int | None = None,
+    meanwhile: Callable[[], None] | None = None,
+) -> dict[str, bytes]:
+    """Save every record's figure into ``folder``; the PNG of each for report.html, by stem.
+
+    With more than one worker the figures are drawn in forked processes (each a whole
+    figure: drawn, saved, released), in the order given; a figure's files are the same bytes
+    whichever process draws it. ``workers`` defaults to :data:`FIGURE_WORKERS`.
+    ``meanwhile`` is called in this process while the workers draw (with one worker: before
+    the figures are drawn).
     """
-    post = result.posterior
-    makers: dict[str, Callable[[], Any]] = {}
-    for body in post.bodies:
-        truths = result.ideals.get(body) or None
-        makers[_corner_stem(result, body)] = functools.partial(post.corner, body, truths=truths)
-        makers[f"identification-{body}"] = functools.partial(
-            plots.plot_identification_curve, post, body, baseline=result.baselines.get(body)
-        )
-        makers[f"trace-{body}"] = functools.partial(plots.plot_trace, post, body)
-        makers[f"rank-{body}"] = functools.partial(plots.plot_rank, post, body)
-    if len(post.bodies) > 1:
-        makers["corner-joint"] = functools.partial(
-            plots.plot_joint_corner, post, truths=result.ideals or None
-        )
-    for cond, traces in traces_by_condition(result.traces).items():
-        makers[f"fast-trials-{cond}"] = functools.partial(
-            plots.plot_fast_trials, traces, title=cond
-        )
-    used = usable_trials(result.trials)  # a skipped trial has no inertia to draw
-    fast = used[used["kind"] == "fast"]
-    if len(fast):
-        makers["inertia-by-speed"] = functools.partial(plots.plot_inertia_by_speed, fast)
-    return makers
+    count = _worker_count(len(records), workers)
+    if count == 1:
+        if meanwhile is not None:
+            meanwhile()
+        return {r.stem: _draw(r, folder, formats) for r in records}
+    from concurrent.futures import ProcessPoolExecutor
+
+    _QUEUE[:] = [(r, folder, formats) for r in records]
+    try:
+        with warnings.catch_warnings():
+            # Python warns that fork() in a process with threads (BLAS's idle pool) may
+            # deadlock the child; OpenBLAS starts its pool afresh in a forked child, and the
+            # workers only draw and save figures.
+            warnings.simplefilter("ignore", DeprecationWarning)
+            context = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(count, mp_context=context) as pool:
+                futures = [pool.submit(_draw_queued, i) for i in range(len(records))]
+                try:
+                    if meanwhile is not None:
+                        meanwhile()
+                    pngs = [f.result() for f in futures]
+                except BaseException:
+                    pool.shutdown(cancel_futures=True)
+                    raise
+    finally:
+        _QUEUE.clear()
+    return {r.stem: png for r, png in zip(records, pngs, strict=True)}
 
 
 def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
@@ -104,34 +157,37 @@ def write_outputs(
     result: Result,
     *,
     hdi_prob: float | None = None,
-    formats: tuple[str, ...] = ("pdf", "png"),
+    formats: tuple[str, ...] = DEFAULT_FORMATS,
     save_data: bool = True,
+    workers: int | None = None,
 ) -> list[str]:
     """Every output file into ``folder`` (which must exist); the names written, sorted.
 
     ``save_data`` writes :data:`DATA_FILES` too (``posterior.nc``, ``trials.csv`` and
     ``traces.csv``): once, when the posterior is sampled; a redraw reads them instead.
+    Every figure of :func:`~inertiafit.report.figures.figure_records` is saved in
+    ``formats`` (default PNG only; PDF and SVG when asked) by :func:`draw_figures`
+    (``workers`` processes) and shown in ``report.html``.
     """
     hdi_prob = result.hdi_prob if hdi_prob is None else hdi_prob
     before = {p.name for p in folder.iterdir()}
-    write_tables(folder, result, hdi_prob=hdi_prob)
-    if save_data:
-        result.posterior.save(folder / "posterior.nc")
-        if len(result.trials):
-            write_csv(result.trials, folder / "trials.csv")
-        if len(result.traces):
-            write_csv(result.traces, folder / "traces.csv")
-    # One figure at a time: drawn, saved, its PNG kept for report.html, then let go.
-    embedded: dict[str, bytes] = {}
-    for stem, make in figure_makers(result).items():
-        fig = make()
-        plots.save_figure(fig, folder / stem, formats, dpi=150)
-        # Embed the PNG just written rather than drawing the figure once more.
-        embedded[stem] = (
-            (folder / f"{stem}.png").read_bytes() if "png" in formats else figure_png(fig)
-        )
-        del fig
-    study_report(folder / "report.html", result, embedded, hdi_prob)
+
+    def tables_and_data() -> None:
+        write_tables(folder, result, hdi_prob=hdi_prob)
+        if save_data:
+            result.posterior.save(folder / "posterior.nc")
+            if len(result.trials):
+                write_csv(result.trials, folder / "trials.csv")
+            if len(result.traces):
+                write_csv(result.traces, folder / "traces.csv")
+
+    # One figure at a time per process: drawn, saved, its PNG kept for report.html, let go;
+    # the tables and data files are written here while worker processes draw.
+    records = figure_records(result)
+    embedded = draw_figures(
+        records, folder, tuple(formats), workers=workers, meanwhile=tables_and_data
+    )
+    study_report(folder / "report.html", result, embedded, hdi_prob, records)
     return sorted({p.name for p in folder.iterdir()} - before)
 
 

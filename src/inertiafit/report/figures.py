@@ -1,0 +1,144 @@
+"""The figures of a result, one record each: what the file writer saves and report.html shows.
+
+A figure is a :class:`FigureRecord`: its file stem, the function that draws it, the section of
+``report.html`` it appears in, its caption there, and (rarely) the formats it is limited to.
+:func:`figure_records` lists every figure of a :class:`~inertiafit.report.result.Result`;
+:func:`~inertiafit.report.outputs.write_outputs` saves each record and
+:func:`~inertiafit.report.html.study_report` embeds each under its section, so a new figure is
+a plot function in :mod:`inertiafit.report.plots` and one record here.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from inertiafit.processing.study import usable_trials
+from inertiafit.report import plots
+from inertiafit.report.result import Result, traces_by_condition
+
+__all__ = ["FIGURE_SECTIONS", "FigureRecord", "figure_records"]
+
+#: The sections of report.html that hold figures, in page order.
+FIGURE_SECTIONS = ("Corner plots", "Identification curves", "Trials", "Diagnostics")
+
+
+@dataclass(frozen=True)
+class FigureRecord:
+    """One figure of a result.
+
+    Attributes
+    ----------
+    stem : str
+        File name without extension (``corner-attachment`` -> ``corner-attachment.png``).
+    make : callable
+        Draws the figure and returns a new :class:`matplotlib.figure.Figure`.
+    section : str
+        The section of report.html it is shown in, one of :data:`FIGURE_SECTIONS`.
+    caption : str
+        Its caption there (also the image's alt text).
+    formats : tuple of str, optional
+        The only formats it is written in, of those asked for; ``None`` (default): all.
+    """
+
+    stem: str
+    make: Callable[[], Any]
+    section: str
+    caption: str
+    formats: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.section not in FIGURE_SECTIONS:
+            msg = f"figure {self.stem!r}: section {self.section!r} is not one of {FIGURE_SECTIONS}"
+            raise ValueError(msg)
+
+    def formats_of(self, asked: tuple[str, ...]) -> tuple[str, ...]:
+        """The formats this figure is written in when ``asked`` are."""
+        return asked if self.formats is None else tuple(f for f in asked if f in self.formats)
+
+
+def figure_records(result: Result) -> list[FigureRecord]:
+    """Every figure of ``result``, in the order report.html shows them.
+
+    Each record draws its figure only when called: drawing one figure at a time, saving and
+    dropping it, keeps one figure in memory rather than all of them.
+    """
+    post = result.posterior
+    records: list[FigureRecord] = []
+    add = records.append
+    for body in post.bodies:
+        add(
+            FigureRecord(
+                "corner" if result.from_numbers else f"corner-{body}",
+                functools.partial(post.corner, body, truths=result.ideals.get(body) or None),
+                "Corner plots",
+                f"{body}: axes of m, x and rho span the prior box"
+                + ("; lines: ideal body" if body in result.ideals else ""),
+            )
+        )
+    if len(post.bodies) > 1:
+        add(
+            FigureRecord(
+                "corner-joint",
+                functools.partial(plots.plot_joint_corner, post, truths=result.ideals or None),
+                "Corner plots",
+                "all bodies together",
+            )
+        )
+    for body in post.bodies:
+        add(
+            FigureRecord(
+                f"identification-{body}",
+                functools.partial(
+                    plots.plot_identification_curve,
+                    post,
+                    body,
+                    baseline=result.baselines.get(body),
+                ),
+                "Identification curves",
+                f"{body}: posterior draws, the curve at the posterior medians, the prior box "
+                "and the paper's per-start solutions",
+            )
+        )
+    if len(result.trials):
+        for cond, traces in traces_by_condition(result.traces).items():
+            add(
+                FigureRecord(
+                    f"fast-trials-{cond}",
+                    functools.partial(plots.plot_fast_trials, traces, title=cond),
+                    "Trials",
+                    f"{cond}: filtered velocity and acceleration of the fast trials; shaded: "
+                    "the detected uniform-acceleration window",
+                )
+            )
+        used = usable_trials(result.trials)  # a skipped trial has no inertia to draw
+        fast = used[used["kind"] == "fast"]
+        if len(fast):
+            add(
+                FigureRecord(
+                    "inertia-by-speed",
+                    functools.partial(plots.plot_inertia_by_speed, fast),
+                    "Trials",
+                    "inertia per trial and speed (mean ± SD)",
+                )
+            )
+    for body in post.bodies:
+        add(
+            FigureRecord(
+                f"trace-{body}",
+                functools.partial(plots.plot_trace, post, body),
+                "Diagnostics",
+                f"{body}: walker traces",
+            )
+        )
+        add(
+            FigureRecord(
+                f"rank-{body}",
+                functools.partial(plots.plot_rank, post, body),
+                "Diagnostics",
+                f"{body}: rank plots",
+            )
+        )
+    return records
