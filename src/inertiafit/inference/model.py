@@ -74,6 +74,7 @@ from inertiafit.errors import InputError
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.io.manifest import MAX_TORQUE_GAIN_SD
+from inertiafit.measured import MEASURED_QUANTITIES, measured_quantity
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY, PARAMETERS
 
@@ -99,8 +100,9 @@ HALF_PI = np.pi / 2
 #: and its angle drawn (module docstring, "Priors that are not a box").
 N_ANGLE_CELLS = 128
 
-#: Quantities of a body that can be measured directly (a scale; a balance point).
-MEASURED = ("mass", "com_distance")
+#: Quantities of a body that can be measured directly (a scale; a balance point): the names of
+#: the registry :data:`inertiafit.measured.MEASURED_QUANTITIES`.
+MEASURED = tuple(MEASURED_QUANTITIES)
 
 #: Cells of the angle grid of a body whose angle meets evidence: uniform over the window where
 #: the evidence allows the body, and as many again over the narrowest term's core.
@@ -482,11 +484,7 @@ class Model:
             if body not in index:
                 raise InputError(f"measured: unknown body '{body}'")
             for key, obs in table.items():
-                if key not in MEASURED:
-                    raise InputError(
-                        f"measured.{body}: unknown quantity '{key}' (expected one of "
-                        f"{', '.join(MEASURED)})"
-                    )
+                measured_quantity(key, where=f"measured.{body}")
                 if not isinstance(obs, Observation):
                     raise InputError(f"measured.{body}.{key}: expected an Observation")
             if table:
@@ -653,13 +651,13 @@ class Model:
         }
         if self.measured and mass is not None:
             true_a, _ = self.true_identified(z)
-            for key in MEASURED:
+            for key, q in MEASURED_QUANTITIES.items():
                 cols = []
                 for body, table in self.measured.items():
                     if key in table:
                         k = self.bodies.index(body)
-                        value = mass[..., k] if key == "mass" else true_a[..., k] / mass[..., k]
-                        cols.append(table[key].logpdf(value))
+                        m_k = mass[..., k]
+                        cols.append(table[key].logpdf(q.value(m_k, true_a[..., k] / m_k)))
                 if cols:
                     out[key] = np.stack(cols, -1)
         return out
@@ -683,27 +681,15 @@ class Model:
             return np.minimum(lo, hi), np.maximum(lo, hi)
 
         for key, obs in self.measured.get(body, {}).items():
+            q = MEASURED_QUANTITIES[key]
             h, core = obs.quantile_halfwidth(_WINDOW_TAIL), _CORE_SDS * obs.total_scale
-            if key == "mass":
-                ones = np.ones_like(a_k)
-                terms.append(
-                    (
-                        lambda m, _x, obs=obs: obs.logpdf(m),
-                        (ones * (obs.center - h), ones * (obs.center + h)),
-                        (ones * (obs.center - core), ones * (obs.center + core)),
-                    )
+            terms.append(
+                (
+                    lambda m, x, obs=obs, q=q: obs.logpdf(q.value(m, x)),
+                    q.masses(obs.center - h, obs.center + h, a_k),
+                    q.masses(obs.center - core, obs.center + core, a_k),
                 )
-            else:  # com_distance: x = a / m, decreasing in m
-                with np.errstate(divide="ignore"):
-                    win = (
-                        a_k / (obs.center + h),
-                        np.where(obs.center > h, a_k / (obs.center - h), np.inf),
-                    )
-                    cw = (
-                        a_k / (obs.center + core),
-                        np.where(obs.center > core, a_k / (obs.center - core), np.inf),
-                    )
-                terms.append((lambda _m, x, obs=obs: obs.logpdf(x), win, cw))
+            )
         if k in self.moved_conditions:
             total_a, total_b = self._totals(z)
             for ci in self.moved_conditions[k]:
