@@ -182,22 +182,10 @@ def build_tree(
     terms = model.log_likelihood_terms(
         run.chain, run.parameters["mass"] if model.has_extra else None
     )
-    ll_vars = {}
-    for obs_name in ("inertia", "gravity_moment"):
-        labels = [c.label for c in model.conditions if getattr(c, obs_name)]
-        if labels:
-            ll_vars[obs_name] = xr.DataArray(
-                terms[obs_name],
-                dims=("chain", "draw", f"{obs_name}_condition"),
-                coords={f"{obs_name}_condition": labels},
-            )
-    for key, q in MEASURED_QUANTITIES.items():
-        if key in terms:  # a weighed mass, a balance point
-            ll_vars[key] = xr.DataArray(
-                terms[key],
-                dims=("chain", "draw", q.body_dim),
-                coords={q.body_dim: model.measured_bodies(key)},
-            )
+    ll_vars = {
+        var: xr.DataArray(terms[var], dims=("chain", "draw", dim), coords={dim: labels})
+        for var, (dim, labels) in model.likelihood_coords().items()
+    }
     log_likelihood = xr.Dataset(ll_vars, coords={"chain": coords["chain"], "draw": coords["draw"]})
     sample_stats = xr.Dataset(
         {"lp": xr.DataArray(run.log_prob, dims=("chain", "draw"))},

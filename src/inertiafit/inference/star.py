@@ -50,6 +50,8 @@ def star_structure(model: Model) -> Star | None:
     """
     if any(c.offset_body or c.has_added for c in model.conditions):
         return None  # a moved body or a known added mass: the joint sampler handles those
+    if any(len(t.bodies) > 1 for t in model.extra_terms):
+        return None  # a term across bodies would tie a leaf to others: the joint sampler
     member = model.membership.astype(bool)  # (conditions, bodies)
     n_cond_of_body = member.sum(0)
     candidates = [j for j in range(len(model.bodies)) if n_cond_of_body[j] == 1]
