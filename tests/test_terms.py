@@ -34,6 +34,7 @@ MG_TRUE = float(physics.gravity_moment(TRUE[0], TRUE[1]))
 INERTIA = Observation(I_TRUE * 1.001, 0.002 * I_TRUE, 9.0, 10)
 GRAVITY_MOMENT = Observation.from_mean_se(MG_TRUE * 0.999, 0.002 * MG_TRUE)
 WEIGHED = Observation.from_mean_se(2.77, 0.01)
+MG_READING = Observation.from_mean_se(MG_TRUE, 0.004 * MG_TRUE)
 
 
 def rows(n: int = 40, seed: int = 0) -> np.ndarray:
@@ -205,3 +206,24 @@ def test_each_measured_quantity_is_declared_once_and_read_from_the_registry():
     assert hi[0] == np.inf
     with pytest.raises(InputError, match="unknown quantity 'volume'"):
         MeasuredEvidence("disk", "volume", WEIGHED)
+
+
+def test_a_term_off_the_angle_of_a_leaf_keeps_the_blocked_sampler_off(registered):
+    att, disk = load_prior("biodex-elbow-attachment"), load_prior("disk-3kg")
+    conds = [
+        Condition(("attachment",), INERTIA, GRAVITY_MOMENT),
+        Condition(
+            ("attachment", "disk"),
+            Observation.from_mean_se(I_TRUE + 0.6, 0.003),
+            Observation.from_mean_se(MG_TRUE + 12.8, 0.03),
+        ),
+    ]
+    reading = Observation.from_mean_se(12.8, 0.05)
+    priors = {"attachment": att, "disk": disk}
+    # the blocked sampler's leaf density holds only the leaf's prior and its angle's terms
+    assert star_structure(Model(priors, conds, terms=[registered("disk", reading)])) is None
+    # on the attachment it is part of the shared bodies' own density
+    on_shared = Model(priors, conds, terms=[registered("attachment", MG_READING)])
+    star = star_structure(on_shared)
+    assert star is not None
+    assert BlockedGibbs.shared_submodel(on_shared, star).extra_terms == on_shared.extra_terms

@@ -50,8 +50,6 @@ def star_structure(model: Model) -> Star | None:
     """
     if any(c.offset_body or c.has_added for c in model.conditions):
         return None  # a moved body or a known added mass: the joint sampler handles those
-    if any(len(t.bodies) > 1 for t in model.extra_terms):
-        return None  # a term across bodies would tie a leaf to others: the joint sampler
     member = model.membership.astype(bool)  # (conditions, bodies)
     n_cond_of_body = member.sum(0)
     candidates = [j for j in range(len(model.bodies)) if n_cond_of_body[j] == 1]
@@ -68,6 +66,10 @@ def star_structure(model: Model) -> Star | None:
         leaf_conds.append(ci)
     if not leaves:
         return None
+    names = {model.bodies[j] for j in leaves}
+    for t in model.extra_terms:  # on a leaf, only a term on its own angle (its prior's curve)
+        if names.intersection(t.bodies) and (len(t.bodies) > 1 or t.angle_body not in names):
+            return None
     shared = [j for j in range(len(model.bodies)) if j not in leaves]
     shared_conds = [ci for ci in range(len(model.conditions)) if ci not in leaf_conds]
     if shared:
