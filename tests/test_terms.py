@@ -42,6 +42,19 @@ def rows(n: int = 40, seed: int = 0) -> np.ndarray:
     return np.log([[TRUE[0] * TRUE[1], I_TRUE]]) + 0.003 * rng.standard_normal((n, 2))
 
 
+def attachment_and_disk():
+    """Two priors and the two conditions of a star: the attachment alone and with the disk."""
+    conds = [
+        Condition(("attachment",), INERTIA, GRAVITY_MOMENT),
+        Condition(
+            ("attachment", "disk"),
+            Observation.from_mean_se(I_TRUE + 0.6, 0.003),
+            Observation.from_mean_se(MG_TRUE + 12.8, 0.03),
+        ),
+    ]
+    return load_prior("biodex-elbow-attachment"), load_prior("disk-3kg"), conds
+
+
 @dataclasses.dataclass(frozen=True)
 class GravityReading:
     """A new kind, as a module would add it: ``M_g`` of one body read by a second instrument."""
@@ -166,15 +179,7 @@ def test_likelihood_columns_follow_the_model_bodies_whatever_order_measured_is_g
 
 
 def test_condition_terms_hold_the_conditions_and_the_blocked_submodel_gets_the_shared_terms():
-    att, disk = load_prior("biodex-elbow-attachment"), load_prior("disk-3kg")
-    conds = [
-        Condition(("attachment",), INERTIA, GRAVITY_MOMENT),
-        Condition(
-            ("attachment", "disk"),
-            Observation.from_mean_se(I_TRUE + 0.6, 0.003),
-            Observation.from_mean_se(MG_TRUE + 12.8, 0.03),
-        ),
-    ]
+    att, disk, conds = attachment_and_disk()
     measured = {"attachment": {"com_distance": Observation.from_mean_se(0.236, 0.002)},
                 "disk": {"mass": WEIGHED}}  # fmt: skip
     model = Model({"attachment": att, "disk": disk}, conds, measured=measured)
@@ -209,15 +214,7 @@ def test_each_measured_quantity_is_declared_once_and_read_from_the_registry():
 
 
 def test_a_term_off_the_angle_of_a_leaf_keeps_the_blocked_sampler_off(registered):
-    att, disk = load_prior("biodex-elbow-attachment"), load_prior("disk-3kg")
-    conds = [
-        Condition(("attachment",), INERTIA, GRAVITY_MOMENT),
-        Condition(
-            ("attachment", "disk"),
-            Observation.from_mean_se(I_TRUE + 0.6, 0.003),
-            Observation.from_mean_se(MG_TRUE + 12.8, 0.03),
-        ),
-    ]
+    att, disk, conds = attachment_and_disk()
     reading = Observation.from_mean_se(12.8, 0.05)
     priors = {"attachment": att, "disk": disk}
     # the blocked sampler's leaf density holds only the leaf's prior and its angle's terms
