@@ -13,6 +13,7 @@ from inertiafit.cli import main
 from inertiafit.errors import InputError
 from inertiafit.inference.evidence import condition_evidence
 from inertiafit.io import load_study
+from inertiafit.io.outputs import MARKER
 from inertiafit.pipeline.redraw import load_result
 from inertiafit.posterior import open_posterior
 from inertiafit.processing.study import TRIAL_COLUMNS, process_study
@@ -235,6 +236,8 @@ def test_skip_runs_the_study_to_the_end_with_its_inputs_on_record(clean_study, t
     # one written before the lag columns with them empty
     old = trials[trials.status == "ok"].drop(columns=["status", "lag", "lag_se"])
     old.to_csv(out / "trials.csv", index=False)
+    # ... in a folder of that older inertiafit, whose marker listed no files
+    (out / MARKER).write_text("written by inertiafit; the whole folder is replaced on rerun\n")
     result = load_result(out)
     assert (result.trials.status == "ok").all()
     assert result.trials["lag"].isna().all()

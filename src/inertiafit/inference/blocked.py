@@ -108,17 +108,14 @@ class BlockedGibbs:
 
     @staticmethod
     def shared_submodel(model: Model, star: Star) -> Model:
-        """The shared bodies with the conditions that hold only them: ``pi_S L_shared``."""
+        """The shared bodies with the conditions and terms that hold only them: ``pi_S L_shared``."""
+        shared = {model.bodies[j] for j in star.shared}
         return Model(
             {model.bodies[j]: model.priors[model.bodies[j]] for j in star.shared},
             [model.conditions[ci] for ci in star.shared_conditions],
             gravity=model.gravity,
             torque_gain_sd=model.torque_gain_sd,
-            measured={
-                model.bodies[j]: model.measured[model.bodies[j]]
-                for j in star.shared
-                if model.bodies[j] in model.measured
-            },
+            terms=[t for t in model.extra_terms if shared.issuperset(t.bodies)],
         )
 
     @staticmethod

@@ -25,6 +25,7 @@ from inertiafit.errors import InputError
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior, load_prior
+from inertiafit.measured import measured_quantity
 
 if TYPE_CHECKING:  # evidence reads these; importing them would load the processing stack
     from inertiafit.io import Study
@@ -211,6 +212,7 @@ def measured_from_numbers(
     """
     out = {}
     for name, (value, sd) in given.items():
+        measured_quantity(name, where="measured")
         if value is None and sd is None:
             continue
         if sd is None:

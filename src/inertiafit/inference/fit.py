@@ -17,9 +17,10 @@ import xarray as xr
 
 from inertiafit._checks import check_seed
 from inertiafit.inference.evidence import evidence_from_numbers, measured_from_numbers
-from inertiafit.inference.model import MEASURED, Condition, Model
+from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.sampler import SamplerSettings, sample
+from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED, UNITS
 from inertiafit.posterior import Posterior, inputs_json
 
@@ -61,15 +62,14 @@ def _observation_summary(model: Model) -> xr.Dataset:
     data["added_first_moment"] = ("condition", np.array([c.added_first_moment for c in conds]))
     data["added_inertia"] = ("condition", np.array([c.added_inertia for c in conds], float))
     out = xr.Dataset(data, coords={"condition": labels})
-    for key in MEASURED:  # direct measurements per body (NaN where none)
-        for field in ("center", "total_scale"):
+    for key, q in MEASURED_QUANTITIES.items():  # direct measurements per body (NaN where none)
+        for field, name in zip(("center", "total_scale"), q.constant_vars, strict=True):
             vals = [
                 float(getattr(model.measured[b][key], field))
                 if key in model.measured.get(b, {})
                 else math.nan
                 for b in model.bodies
             ]
-            name = f"measured_{key}" if field == "center" else f"measured_{key}_sd"
             out[name] = xr.DataArray(
                 np.array(vals), dims="body", coords={"body": list(model.bodies)}
             )
@@ -95,14 +95,14 @@ def _observed(model: Model) -> xr.Dataset:
             coords={f"{obs_name}_condition": (dim, np.array(conds, dtype=str))},
             attrs={"units": UNITS[obs_name]},
         )
-    for key, dim in (("mass", "mass_body"), ("com_distance", "com_body")):
+    for key, q in MEASURED_QUANTITIES.items():
         bodies = model.measured_bodies(key)
         if bodies:
             out[key] = xr.DataArray(
                 np.array([model.measured[b][key].center for b in bodies]),
-                dims=dim,
-                coords={dim: bodies},
-                attrs={"units": UNITS[key]},
+                dims=q.body_dim,
+                coords={q.body_dim: bodies},
+                attrs={"units": q.unit},
             )
     return xr.Dataset(out)
 
@@ -191,22 +191,10 @@ def build_tree(
     terms = model.log_likelihood_terms(
         run.chain, run.parameters["mass"] if model.has_extra else None
     )
-    ll_vars = {}
-    for obs_name in ("inertia", "gravity_moment"):
-        labels = [c.label for c in model.conditions if getattr(c, obs_name)]
-        if labels:
-            ll_vars[obs_name] = xr.DataArray(
-                terms[obs_name],
-                dims=("chain", "draw", f"{obs_name}_condition"),
-                coords={f"{obs_name}_condition": labels},
-            )
-    for key, dim in (("mass", "mass_body"), ("com_distance", "com_body")):
-        if key in terms:  # a weighed mass, a balance point
-            ll_vars[key] = xr.DataArray(
-                terms[key],
-                dims=("chain", "draw", dim),
-                coords={dim: model.measured_bodies(key)},
-            )
+    ll_vars = {
+        var: xr.DataArray(terms[var], dims=("chain", "draw", dim), coords={dim: labels})
+        for var, (dim, labels) in model.likelihood_coords().items()
+    }
     log_likelihood = xr.Dataset(ll_vars, coords={"chain": coords["chain"], "draw": coords["draw"]})
     sample_stats = xr.Dataset(
         {"lp": xr.DataArray(run.log_prob, dims=("chain", "draw"))},

@@ -51,7 +51,7 @@ and ``x = a / m``). It multiplies the prior along the curve: the angle's conditi
 is the prior times that evidence, still 1-D and drawn exactly, and the marginal of the sampled
 coordinates integrates both. Where the evidence is sharp (a scale reads to 0.3 %), the angles
 it allows fill a small part of ``Psi(a, b)``, so the grid is cut to the masses each term allows
-(all but :data:`_WINDOW_TAIL` of its likelihood) and refined over the narrowest term's core:
+(all but :data:`~inertiafit.inference.terms.WINDOW_TAIL` of its likelihood) and refined over the narrowest term's core:
 :data:`N_EXTRA_CELLS` equal cells over each, merged. A moved body's condition involves the other
 bodies it is mounted with, so its evidence is evaluated per row of the sampled coordinates; at
 most one body of a condition is moved, so the angles stay conditionally independent. Known
@@ -74,7 +74,16 @@ from inertiafit._checks import check_number, check_positive
 from inertiafit.errors import InputError
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
+from inertiafit.inference.terms import (
+    TERM_KINDS,
+    ConditionEvidence,
+    CurvePiece,
+    MeasuredEvidence,
+    Point,
+    Term,
+)
 from inertiafit.io.manifest import MAX_TORQUE_GAIN_SD
+from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY, PARAMETERS
 
@@ -100,8 +109,9 @@ HALF_PI = np.pi / 2
 #: and its angle drawn (module docstring, "Priors that are not a box").
 N_ANGLE_CELLS = 128
 
-#: Quantities of a body that can be measured directly (a scale; a balance point).
-MEASURED = ("mass", "com_distance")
+#: Quantities of a body that can be measured directly (a scale; a balance point): the names of
+#: the registry :data:`inertiafit.measured.MEASURED_QUANTITIES`.
+MEASURED = tuple(MEASURED_QUANTITIES)
 
 #: Cells of the angle grid of a body whose angle meets evidence: uniform over the window where
 #: the evidence allows the body, and as many again over the narrowest term's core.
@@ -109,10 +119,6 @@ N_EXTRA_CELLS = 96
 
 #: Edges of :data:`N_EXTRA_CELLS` equal cells of ``[0, 1]``.
 _UNIT_EDGES = np.linspace(0.0, 1.0, N_EXTRA_CELLS + 1)
-
-#: Tail of each term's likelihood left outside that window, and the core's half-width in SDs.
-_WINDOW_TAIL = 1e-8
-_CORE_SDS = 8.0
 
 #: Rows of ``(a, b)`` handled at once on the angle grid (bounds the memory of one call).
 _ROWS_PER_BLOCK = 512
@@ -434,8 +440,16 @@ class Model:
         docstring, "Systematic errors".
     measured : mapping of str to mapping of str to Observation, optional
         Direct measurements of a body's ``mass`` (kg; a scale) or ``com_distance`` (m, from the
-        joint axis in the body's own mounting; a balance point), by body name. See the module
-        docstring, "Extra information".
+        joint axis in the body's own mounting; a balance point), by body name
+        (:data:`inertiafit.measured.MEASURED_QUANTITIES`); each becomes a
+        :class:`~inertiafit.inference.terms.MeasuredEvidence`. See the module docstring, "Extra
+        information".
+    terms : sequence of Term, optional
+        Further likelihood terms (:mod:`inertiafit.inference.terms`), of any registered kind.
+
+    The model's :attr:`terms` are the extra terms (measurements first) and one
+    :class:`~inertiafit.inference.terms.ConditionEvidence` per condition; the joint density,
+    the angle grid, :meth:`log_likelihood_terms` and the samplers iterate them.
     """
 
     def __init__(
@@ -446,6 +460,7 @@ class Model:
         gravity: float = GRAVITY,
         torque_gain_sd: float = 0.0,
         measured: Mapping[str, Mapping[str, Observation]] | None = None,
+        terms: Sequence[Term] = (),
     ) -> None:
         self.priors = dict(priors)
         self.bodies = tuple(self.priors)
@@ -475,24 +490,35 @@ class Model:
         ]
         if unused:
             raise InputError(f"model: body '{unused[0]}' is in no condition")
-        self._inertia = [(ci, c.inertia) for ci, c in enumerate(self.conditions) if c.inertia]
-        self._gravity = [
-            (ci, c.gravity_moment) for ci, c in enumerate(self.conditions) if c.gravity_moment
-        ]
-        self.measured: dict[str, dict[str, Observation]] = {}
-        for body, table in (measured or {}).items():
+        for body in measured or {}:
             if body not in index:
                 raise InputError(f"measured: unknown body '{body}'")
-            for key, obs in table.items():
-                if key not in MEASURED:
-                    raise InputError(
-                        f"measured.{body}: unknown quantity '{key}' (expected one of "
-                        f"{', '.join(MEASURED)})"
-                    )
-                if not isinstance(obs, Observation):
-                    raise InputError(f"measured.{body}.{key}: expected an Observation")
-            if table:
-                self.measured[body] = dict(table)
+        extra: list[Term] = [
+            MeasuredEvidence(body, key, obs)
+            for body in self.bodies
+            for key, obs in (measured or {}).get(body, {}).items()
+        ]
+        for term in terms:
+            unknown = [b for b in term.bodies if b not in index]
+            if unknown:
+                raise InputError(f"{term.kind} term '{term.label}': unknown body '{unknown[0]}'")
+            extra.append(term)
+        #: Evidence besides the conditions' (direct measurements first, then ``terms``).
+        self.extra_terms: tuple[Term, ...] = tuple(extra)
+        #: Every likelihood term: the extra ones, then one per condition (its evidence).
+        self.terms: tuple[Term, ...] = (
+            *self.extra_terms,
+            *(ConditionEvidence(ci, c, self.gravity) for ci, c in enumerate(self.conditions)),
+        )
+        #: The terms off every angle: functions of the sampled coordinates alone.
+        self._direct = tuple(t for t in self.terms if not t.angle_body)
+        #: The ``log_likelihood`` variables the terms write, in the registry's order.
+        self.variables: tuple[str, ...] = tuple(
+            v
+            for kind in TERM_KINDS.values()
+            for v in kind.VARIABLES
+            if any(v in t.variables for t in self.terms)
+        )
         #: Conditions whose evidence involves a body's mass (a moved body), by body index.
         self.moved_conditions: dict[int, list[int]] = {}
         for ci, cond in enumerate(self.conditions):
@@ -502,11 +528,20 @@ class Model:
         self.curve_bodies = tuple(
             k
             for k, body in enumerate(self.bodies)
-            if body in self.measured or k in self.moved_conditions
+            if any(t.angle_body == body for t in self.terms)
         )
         self._added = np.array(
             [[c.added_first_moment, c.added_inertia] for c in self.conditions], dtype=float
         )
+
+    @property
+    def measured(self) -> dict[str, dict[str, Observation]]:
+        """Direct measurements by body and quantity (the ``measured`` argument, as terms)."""
+        out: dict[str, dict[str, Observation]] = {}
+        for t in self.extra_terms:
+            if isinstance(t, MeasuredEvidence):
+                out.setdefault(t.body, {})[t.quantity] = t.observation
+        return out
 
     @property
     def has_gain(self) -> bool:
@@ -562,8 +597,9 @@ class Model:
     def _totals(self, z):
         """Observed-scale totals of every condition, ``(..., C)`` each, with added masses.
 
-        A moved body enters with its own ``(a, b)`` only; :meth:`_moved_lines` adds the part
-        that depends on its mass.
+        A moved body enters with its own ``(a, b)`` only; its condition's term
+        (:meth:`~inertiafit.inference.terms.ConditionEvidence.lines`) adds the part that
+        depends on its mass.
         """
         a, b = self.split(z)
         total_a = a @ self.membership.T
@@ -574,31 +610,10 @@ class Model:
             total_b = total_b + gain * self._added[:, 1]
         return total_a, total_b
 
-    def _moved_lines(self, z, ci: int, total_a, total_b):
-        """Condition ``ci``'s observed-scale totals as lines in its moved body's mass ``m``.
-
-        ``A(m) = ta + sa m`` and ``B(m) = tb + sb m``: the moved body adds ``gain m d`` to
-        ``a`` and ``2 a d + gain m d^2`` to ``I`` (``a`` observed-scale, ``m`` true). Returns
-        ``(ta, sa, tb, sb)``, each ``(rows,)``; ``total_a``, ``total_b`` from :meth:`_totals`.
-        """
-        cond = self.conditions[ci]
-        k = self.bodies.index(cond.offset_body)
-        d = cond.offset
-        gain = np.exp(self.log_gain(z))
-        a_obs, _ = self.split(z)
-        ta = total_a[..., ci]
-        tb = total_b[..., ci] + 2 * d * a_obs[..., k]
-        return ta, gain * d, tb, gain * d * d
-
-    def _condition_log_likelihood(self, ci: int, total_a, total_b):
-        """Log-likelihood of condition ``ci``'s evidence at observed-scale totals (arrays)."""
-        cond = self.conditions[ci]
-        out = 0.0
-        if cond.gravity_moment is not None:
-            out = out + cond.gravity_moment.logpdf(self.gravity * total_a)
-        if cond.inertia is not None:
-            out = out + cond.inertia.logpdf(cond.inertia_at(total_b, self.gravity * total_a))
-        return out
+    def _point(self, z, mass=None) -> Point:
+        """Rows ``z`` as the terms see them (:class:`~inertiafit.inference.terms.Point`)."""
+        total_a, total_b = self._totals(z)
+        return Point(self, z, total_a, total_b, mass)
 
     def log_prior(self, z):
         """Log density of the marginal prior of the sampled coordinates, up to a constant.
@@ -620,130 +635,49 @@ class Model:
             out = out - 0.5 * (self.log_gain(z) / self.torque_gain_sd) ** 2
         return out
 
+    def _stacked(self, point: Point, terms: Sequence[Term]) -> dict[str, np.ndarray]:
+        """The ``terms``' log-likelihoods at ``point``, per variable ``(..., n_terms)``."""
+        cols: dict[str, list[np.ndarray]] = {v: [] for v in self.variables}
+        for term in terms:
+            for var, value in term.log_likelihood(point).items():
+                cols[var].append(value)
+        return {v: np.stack(c, -1) for v, c in cols.items() if c}
+
     def log_likelihood_terms(self, z, mass=None) -> dict[str, np.ndarray]:
         """Pointwise log-likelihood of every piece of evidence, each ``(..., n_obs)``.
 
-        ``inertia`` and ``gravity_moment`` per condition that has them; with measured bodies
-        ``mass`` and ``com_distance`` per body measured. Evidence that involves a body's mass
-        (a moved body, a measured one) needs the bodies' true masses ``mass`` (``(..., K)``,
-        from :meth:`parameters`); without them only conditions without a moved body can be
-        evaluated (``mass=None`` with such evidence is an error).
+        One array per variable of :attr:`variables` (``inertia`` and ``gravity_moment`` along
+        the conditions that have them, a measured quantity along the bodies measured;
+        :meth:`likelihood_coords`). Evidence that involves a body's mass (a moved body, a
+        measured one) needs the bodies' true masses ``mass`` (``(..., K)``, from
+        :meth:`parameters`); without them only terms off the angle can be evaluated
+        (``mass=None`` with such evidence is an error).
         """
-        total_a, total_b = self._totals(z)
-        lead = np.shape(total_a)[:-1]
         if mass is None and self.has_extra:
             raise ValueError("log_likelihood_terms: this model's evidence needs the masses")
-        if mass is not None:
-            mass = np.asarray(mass, float)
-            moved_a, moved_b = total_a.copy(), total_b.copy()
-            for ci, cond in enumerate(self.conditions):
-                if cond.offset_body:
-                    m = mass[..., self.bodies.index(cond.offset_body)]
-                    ta, sa, tb, sb = self._moved_lines(z, ci, total_a, total_b)
-                    moved_a[..., ci], moved_b[..., ci] = ta + sa * m, tb + sb * m
-            total_a, total_b = moved_a, moved_b
-        inertia = [
-            obs.logpdf(
-                self.conditions[ci].inertia_at(total_b[..., ci], self.gravity * total_a[..., ci])
-            )
-            for ci, obs in self._inertia
-        ]
-        grav = [obs.logpdf(self.gravity * total_a[..., ci]) for ci, obs in self._gravity]
-        out = {
-            "inertia": np.stack(inertia, -1) if inertia else np.zeros((*lead, 0)),
-            "gravity_moment": np.stack(grav, -1) if grav else np.zeros((*lead, 0)),
-        }
-        if self.measured and mass is not None:
-            true_a, _ = self.true_identified(z)
-            for key in MEASURED:
-                cols = []
-                for body, table in self.measured.items():
-                    if key in table:
-                        k = self.bodies.index(body)
-                        value = mass[..., k] if key == "mass" else true_a[..., k] / mass[..., k]
-                        cols.append(table[key].logpdf(value))
-                if cols:
-                    out[key] = np.stack(cols, -1)
+        point = self._point(z, None if mass is None else np.asarray(mass, float))
+        return self._stacked(point, self.terms)
+
+    def likelihood_coords(self) -> dict[str, tuple[str, list[str]]]:
+        """Each ``log_likelihood`` variable's dimension and labels (:meth:`log_likelihood_terms`)."""
+        out: dict[str, tuple[str, list[str]]] = {}
+        for var in self.variables:
+            having = [t for t in self.terms if var in t.variables]
+            out[var] = (having[0].dims()[var], [t.label for t in having])
         return out
 
     # -- evidence on the angle ---------------------------------------------------------------
-    def _curve_terms(self, z, k: int, a_k):
-        """The evidence on body ``k``'s angle for rows ``z`` (2-D; ``a_k`` its true ``a``).
+    def _curve_terms(self, z, k: int, a_k) -> list[CurvePiece]:
+        """The terms on body ``k``'s angle for rows ``z`` (2-D or ``None``; ``a_k`` its true ``a``).
 
-        Returns a list of ``(logpdf(mass, x) -> (rows, n), (lo, hi), (core_lo, core_hi))``: each
-        term's log-likelihood on a grid of masses and CoM distances, the interval of masses
-        outside which it holds less than :data:`_WINDOW_TAIL` of its mass, and its core
-        (:data:`_CORE_SDS` SDs), all ``(rows,)``.
+        Each term's :class:`~inertiafit.inference.terms.CurvePiece`: its log-likelihood on a grid
+        of masses and CoM distances, the interval of masses outside which it holds less than
+        :data:`~inertiafit.inference.terms.WINDOW_TAIL` of its mass, and its core
+        (:data:`~inertiafit.inference.terms.CORE_SDS` SDs), all ``(rows,)``.
         """
         body = self.bodies[k]
-        terms = []
-
-        def interval(center, half, slope, intercept):
-            # masses where intercept + slope * m lies in center +- half
-            lo = (center - half - intercept) / slope
-            hi = (center + half - intercept) / slope
-            return np.minimum(lo, hi), np.maximum(lo, hi)
-
-        for key, obs in self.measured.get(body, {}).items():
-            h, core = obs.quantile_halfwidth(_WINDOW_TAIL), _CORE_SDS * obs.total_scale
-            if key == "mass":
-                ones = np.ones_like(a_k)
-                terms.append(
-                    (
-                        lambda m, _x, obs=obs: obs.logpdf(m),
-                        (ones * (obs.center - h), ones * (obs.center + h)),
-                        (ones * (obs.center - core), ones * (obs.center + core)),
-                    )
-                )
-            else:  # com_distance: x = a / m, decreasing in m
-                with np.errstate(divide="ignore"):
-                    win = (
-                        a_k / (obs.center + h),
-                        np.where(obs.center > h, a_k / (obs.center - h), np.inf),
-                    )
-                    cw = (
-                        a_k / (obs.center + core),
-                        np.where(obs.center > core, a_k / (obs.center - core), np.inf),
-                    )
-                terms.append((lambda _m, x, obs=obs: obs.logpdf(x), win, cw))
-        if k in self.moved_conditions:
-            total_a, total_b = self._totals(z)
-            for ci in self.moved_conditions[k]:
-                cond = self.conditions[ci]
-                ta, slope_a, tb, slope_b = self._moved_lines(z, ci, total_a, total_b)
-                lo, hi = np.zeros_like(ta), np.full_like(ta, np.inf)
-                core_lo, core_hi = lo, hi
-                g = self.gravity
-                if cond.gravity_moment is not None:
-                    obs = cond.gravity_moment
-                    lo, hi = interval(
-                        obs.center, obs.quantile_halfwidth(_WINDOW_TAIL), g * slope_a, g * ta
-                    )
-                    core_lo, core_hi = interval(
-                        obs.center, _CORE_SDS * obs.total_scale, g * slope_a, g * ta
-                    )
-                if cond.inertia is not None:
-                    # evidence at B(m) + coupling (M_c - g A(m)): linear in m
-                    kappa = cond.coupling
-                    m_c = cond.gravity_moment.center if cond.gravity_moment is not None else 0.0
-                    intercept = tb + kappa * (m_c - g * ta)
-                    slope = slope_b - kappa * g * slope_a
-                    obs = cond.inertia
-                    ilo, ihi = interval(
-                        obs.center, obs.quantile_halfwidth(_WINDOW_TAIL), slope, intercept
-                    )
-                    clo, chi = interval(obs.center, _CORE_SDS * obs.total_scale, slope, intercept)
-                    lo, hi = np.maximum(lo, ilo), np.minimum(hi, ihi)
-                    if np.all(chi - clo < core_hi - core_lo):
-                        core_lo, core_hi = clo, chi
-
-                def moved(m, _x, ci=ci, ta=ta, tb=tb, sa=slope_a, sb=slope_b):
-                    return self._condition_log_likelihood(
-                        ci, ta[:, None] + sa[:, None] * m, tb[:, None] + sb[:, None] * m
-                    )
-
-                terms.append((moved, (lo, hi), (core_lo, core_hi)))
-        return terms
+        point = None if z is None else self._point(z)
+        return [t.curve(point, a_k) for t in self.terms if t.angle_body == body]
 
     def _curve_grid(self, z, k: int, a, b):
         """Body ``k``'s angle grid for rows ``z``: ``log f``, ``log`` cell width, cell edges.
@@ -761,7 +695,8 @@ class Model:
         m_lo = np.zeros_like(a)
         m_hi = np.full_like(a, np.inf)
         core = narrowest = None
-        for _, (lo, hi), (clo, chi) in terms:
+        for piece in terms:
+            (lo, hi), (clo, chi) = piece.window, piece.core
             m_lo, m_hi = np.maximum(m_lo, lo), np.minimum(m_hi, hi)
             if core is None or np.all(chi - clo < core[1] - core[0]):
                 core, narrowest = (clo, chi), (lo, hi)
@@ -812,8 +747,8 @@ class Model:
         with np.errstate(divide="ignore", invalid="ignore"):
             mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
             log_f = prior.log_density(mass, x, rho, check_support=False)
-            for term, _, _ in terms:
-                log_f = log_f + term(mass, x)
+            for piece in terms:
+                log_f = log_f + piece.log_likelihood(mass, x)
             log_w = np.log(width)
         log_f = np.where(ok[:, None] & (width > 0), log_f, -np.inf)
         return log_f, log_w, (edges * safe[:, None], lo1, len1, lo2)
@@ -920,24 +855,10 @@ class Model:
         ok = np.isfinite(lp)
         out = np.full(lp.shape, -np.inf)
         if ok.any():
-            total_a, total_b = self._totals(z[ok])
-            g = self.gravity
-            inertia = [
-                obs.logpdf(self.conditions[ci].inertia_at(total_b[:, ci], g * total_a[:, ci]))
-                for ci, obs in self._inertia
-                if not self.conditions[ci].offset_body
-            ]
-            grav = [
-                obs.logpdf(g * total_a[:, ci])
-                for ci, obs in self._gravity
-                if not self.conditions[ci].offset_body
-            ]
-            n = int(ok.sum())
-            out[ok] = (
-                lp[ok]
-                + (np.stack(inertia, -1) if inertia else np.zeros((n, 0))).sum(-1)
-                + (np.stack(grav, -1) if grav else np.zeros((n, 0))).sum(-1)
-            )
+            total = lp[ok]
+            for cols in self._stacked(self._point(z[ok]), self._direct).values():
+                total = total + cols.sum(-1)
+            out[ok] = total
         return out
 
     def parameters(self, z, rng: np.random.Generator) -> dict[str, np.ndarray]:

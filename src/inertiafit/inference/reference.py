@@ -6,23 +6,37 @@ For one body in one condition the posterior is a 3-D integral. On a grid in
 ``|d(m, a, b) / d(m, x, rho)| = 2 m^2 rho``) on the image of its support box. A midpoint rule on a fine,
 data-adapted grid gives moments, quantiles and marginal densities of every parameter. This code
 shares nothing with the sampler's parametrisation, so agreement between the two is a real check.
+Evidence beyond the body's own condition (a weighed mass, a balance point, a second mounting,
+any registered kind) enters as the same term objects the model holds
+(:mod:`inertiafit.inference.terms`), evaluated on this grid of the body's parameters.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from inertiafit import physics
 from inertiafit._checks import check_positive, check_whole
-from inertiafit.inference.model import angles_at, feasible_measure, log_identified_prior
+from inertiafit.inference.model import (
+    Condition,
+    angles_at,
+    feasible_measure,
+    log_identified_prior,
+)
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior
 from inertiafit.inference.star import Star, star_structure
+from inertiafit.inference.terms import ConditionEvidence, MeasuredEvidence, Term
 from inertiafit.physics import GRAVITY
 
 __all__ = ["ReferencePosterior", "gain_reference", "reference_posterior", "star_reference"]
+
+
+#: The one body of :func:`reference_posterior`, as its terms name it.
+_BODY = "body"
 
 
 @dataclass(frozen=True)
@@ -143,6 +157,7 @@ def reference_posterior(
     offset: float = 0.0,
     offset_inertia: Observation | None = None,
     offset_gravity_moment: Observation | None = None,
+    terms: Sequence[Term] = (),
     n_identified: int = 120,
     n_mass: int = 400,
     tail: float = 1e-7,
@@ -166,6 +181,9 @@ def reference_posterior(
     offset, offset_inertia, offset_gravity_moment : float, Observation, Observation
         A second mounting ``offset`` metres further out and its evidence on
         ``I + 2 m x d + m d^2`` and ``m g (x + d)``.
+    terms : sequence of Term
+        Further evidence on this body alone (:mod:`inertiafit.inference.terms`); ``mass``,
+        ``com_distance`` and the second mounting become such terms too.
     n_identified, n_mass : int
         Grid points along ``a`` and ``b`` each, and along ``m``.
     tail : float
@@ -188,25 +206,21 @@ def reference_posterior(
     # Masses the grid can reach: rho >= 0 gives m >= a^2 / b; x inside its bounds bounds m too.
     m_min = max(lo["mass"], a_edges[0] ** 2 / b_edges[-1], a_edges[0] / up["com_distance"])
     m_max = min(up["mass"], a_edges[-1] / lo["com_distance"])
-    # Masses the extra evidence allows, over the whole (a, b) grid.
-    a_lo, a_hi = a_edges[0], a_edges[-1]
-    if mass is not None:
-        h = mass.quantile_halfwidth(tail)
-        m_min, m_max = max(m_min, mass.center - h), min(m_max, mass.center + h)
-    if com_distance is not None:
-        h = com_distance.quantile_halfwidth(tail)
-        m_min = max(m_min, a_lo / (com_distance.center + h))
-        if com_distance.center > h:
-            m_max = min(m_max, a_hi / (com_distance.center - h))
-    if offset and offset_gravity_moment is not None:
-        h = offset_gravity_moment.quantile_halfwidth(tail) / gravity
-        ends = sorted(
-            (
-                (offset_gravity_moment.center / gravity - h - a_hi) / offset,
-                (offset_gravity_moment.center / gravity + h - a_lo) / offset,
-            )
+    extra: list[Term] = [
+        MeasuredEvidence(_BODY, key, obs)
+        for key, obs in (("mass", mass), ("com_distance", com_distance))
+        if obs is not None
+    ]
+    if offset:
+        moved = Condition(
+            (_BODY,), offset_inertia, offset_gravity_moment, offset_body=_BODY, offset=offset
         )
-        m_min, m_max = max(m_min, ends[0]), min(m_max, ends[1])
+        extra.append(ConditionEvidence(0, moved, gravity))
+    extra.extend(terms)
+    # Masses the extra evidence allows, over the whole (a, b) grid.
+    for term in extra:
+        lo_m, hi_m = term.body_masses((a_edges[0], a_edges[-1]), tail)
+        m_min, m_max = max(m_min, lo_m), min(m_max, hi_m)
     m_edges = np.linspace(m_min, m_max, n_mass + 1)
     m = 0.5 * (m_edges[1:] + m_edges[:-1])
 
@@ -230,17 +244,10 @@ def reference_posterior(
         log_p = np.where(inside, prior.log_density(M, x, rho, check_support=False), -np.inf)
         w = w * np.exp(log_p - log_p.max())
     log_extra = np.zeros(M.shape)
-    if mass is not None:
-        log_extra = log_extra + mass.logpdf(M)
-    if com_distance is not None:
-        log_extra = log_extra + com_distance.logpdf(x)
-    if offset:
-        a_d, b_d = physics.moved_moments(A, B, M, offset)
-        if offset_gravity_moment is not None:
-            log_extra = log_extra + offset_gravity_moment.logpdf(gravity * a_d)
-        if offset_inertia is not None:
-            log_extra = log_extra + offset_inertia.logpdf(b_d)
-    if mass is not None or com_distance is not None or offset:
+    params = {"mass": M, "com_distance": x, "first_moment": A, "inertia": B}
+    for term in extra:
+        log_extra = log_extra + term.body_log_likelihood(params)
+    if extra:
         top = np.max(np.where(inside, log_extra, -np.inf))
         w = w * np.exp(np.where(inside, log_extra - top, -np.inf))
     keep = w > 0

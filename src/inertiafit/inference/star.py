@@ -66,6 +66,10 @@ def star_structure(model: Model) -> Star | None:
         leaf_conds.append(ci)
     if not leaves:
         return None
+    names = {model.bodies[j] for j in leaves}
+    for t in model.extra_terms:  # on a leaf, only a term on its own angle (its prior's curve)
+        if names.intersection(t.bodies) and (len(t.bodies) > 1 or t.angle_body not in names):
+            return None
     shared = [j for j in range(len(model.bodies)) if j not in leaves]
     shared_conds = [ci for ci in range(len(model.conditions)) if ci not in leaf_conds]
     if shared:

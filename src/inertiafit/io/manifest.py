@@ -82,6 +82,7 @@ from inertiafit.io.readers import (
 )
 from inertiafit.io.trial import apply_torque_sign
 from inertiafit.io.units import unit_factor
+from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY
 
@@ -119,11 +120,10 @@ TOP_KEYS = (
     "on_trial_error",
     "calibration",
 )
-BODY_KEYS = ("prior", "ideal", "mass", "com_distance")
-#: Keys of a measured quantity's table (``[bodies.<name>] mass`` or ``com_distance``).
+BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES)
+#: Keys of a measured quantity's table (``[bodies.<name>] mass`` or ``com_distance``: the
+#: registry :data:`inertiafit.measured.MEASURED_QUANTITIES`).
 MEASURED_KEYS = ("value", "sd", "resolution", "unit")
-#: Measured quantity -> (quantity of :mod:`inertiafit.io.units`, SI unit).
-_MEASURED_UNITS = {"mass": ("mass", "kg"), "com_distance": ("length", "m")}
 #: Keys of one ``added_mass`` table of a trial (SI: kg, m, m).
 ADDED_MASS_KEYS = ("mass", "com_distance", "radius_of_gyration")
 #: Keys of a trial that describe its mounting; never in ``[defaults]``.
@@ -731,7 +731,7 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
             ideal = _table(ideal, where=f"{here}.ideal", what="ideal-shape values")
         measured = {
             key: _measured(entry[key], key, where=f"{here}.{key}")
-            for key in _MEASURED_UNITS
+            for key in MEASURED_QUANTITIES
             if key in entry
         }
         bodies[name] = BodySpec(name=name, prior=prior, ideal=ideal, measured=measured)
@@ -739,8 +739,9 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
 
 
 def _measured(value: object, key: str, *, where: str) -> tuple[float, float]:
-    """A measured ``mass`` or ``com_distance``: ``(value, sd)`` in kg or m."""
-    quantity, si = _MEASURED_UNITS[key]
+    """A measured quantity (:data:`MEASURED_QUANTITIES`): ``(value, sd)`` in its SI unit."""
+    measured = MEASURED_QUANTITIES[key]
+    quantity, si = measured.quantity, measured.unit
     table = _table(
         value, where=where, what=f"{{ value = ..., sd = ... or resolution = ..., unit = {si!r} }}"
     )

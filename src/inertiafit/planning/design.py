@@ -120,6 +120,19 @@ class Design:
         per = self.trials_per_speed * len(self.speeds) + self.quasi_static_trials
         return per * len(self.mountings)
 
+    @property
+    def measured(self) -> dict[str, dict[str, float]]:
+        """Body -> {measured quantity: SD} of the bodies weighed or balanced.
+
+        ``weighed`` is ``mass``, ``balanced`` is ``com_distance`` (the names of
+        :data:`inertiafit.measured.MEASURED_QUANTITIES`).
+        """
+        out: dict[str, dict[str, float]] = {}
+        for key, table in (("mass", self.weighed), ("com_distance", self.balanced)):
+            for body, sd in table.items():
+                out.setdefault(body, {})[key] = float(sd)
+        return out
+
     def bodies(self) -> set[str]:
         """Every body the design names."""
         out = {b for m in self.mountings for b in m.bodies}

@@ -107,15 +107,13 @@ def design_model(
             obs_i = obs_i.with_shared_error(pilot.shared_sd)
             coupling = pilot.coupling
         conditions.append(Condition(mount, obs_i, obs_g, coupling=coupling))
-    measured: dict[str, dict[str, Observation]] = {}
-    for body, sd in design.weighed.items():
-        measured.setdefault(body, {})["mass"] = Observation.from_mean_se(
-            nominal[body]["mass"], sd, where=f"weighed.{body}"
-        )
-    for body, sd in design.balanced.items():
-        measured.setdefault(body, {})["com_distance"] = Observation.from_mean_se(
-            nominal[body]["com_distance"], sd, where=f"balanced.{body}"
-        )
+    measured = {
+        body: {
+            key: Observation.from_mean_se(nominal[body][key], sd, where=f"{body}.{key}")
+            for key, sd in table.items()
+        }
+        for body, table in design.measured.items()
+    }
     used = {b for m in design.mountings for b in m.bodies}
     model_priors = {b: priors[b] for b in nominal if b in used}
     for body, spec in design.priors.items():

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.physics import PARAMETERS
 
 __all__ = [
@@ -246,10 +247,9 @@ def body_sources(tree: xr.DataTree, body: str) -> list[str]:
     """The information sources of ``body``: ``data`` and any extra ones (module docstring)."""
     ll = tree["log_likelihood"].to_dataset() if "log_likelihood" in tree.children else None
     out = ["data"]
-    if ll is not None and "mass" in ll and body in _labels(ll["mass"], "mass_body"):
-        out.append("weighed mass")
-    if ll is not None and "com_distance" in ll and body in _labels(ll["com_distance"], "com_body"):
-        out.append("balance point")
+    for q in MEASURED_QUANTITIES.values():
+        if ll is not None and q.name in ll and body in _labels(ll[q.name], q.body_dim):
+            out.append(q.label)
     if _mountings(tree, body):
         out.append("second mounting")
     return out
@@ -291,17 +291,16 @@ def source_terms(tree: xr.DataTree, body: str) -> dict[str, xr.DataArray]:
         mounting = mounting + arr.where(is_mounted, 0.0).sum(dim)
     terms = {"data": data}
     sources = body_sources(tree, body)
-    if "weighed mass" in sources:
-        terms["weighed mass"] = ll["mass"].sel(mass_body=body, drop=True)
-    if "balance point" in sources:
-        terms["balance point"] = ll["com_distance"].sel(com_body=body, drop=True)
+    for q in MEASURED_QUANTITIES.values():
+        if q.label in sources:
+            terms[q.label] = ll[q.name].sel({q.body_dim: body}, drop=True)
     if "second mounting" in sources:
         terms["second mounting"] = mounting
     return terms
 
 
 #: The parameter an extra source measures directly.
-DIRECT = {"weighed mass": "mass", "balance point": "com_distance"}
+DIRECT = {q.label: q.name for q in MEASURED_QUANTITIES.values()}
 
 
 def counted_sources(
@@ -409,7 +408,7 @@ def pins_line(body: str, rows: Sequence[Mapping[str, Any]], sources: Sequence[st
             left += [str(r["parameter"]) for r in members if r["parameter"] in PARAMETERS]
     line = f"{body}: " + "; ".join(parts)
     if left and list(sources) == ["data"]:
-        if "mass" in left or "com_distance" in left:
+        if any(p in left for p in MEASURED_QUANTITIES):
             line += (
                 " - weigh it, find its balance point or mount it at a second distance from "
                 "the axis to pin them"

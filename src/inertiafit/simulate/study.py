@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY
 from inertiafit.simulate.files import VELOCITY_UNITS, check_units, toml_value, write_trial_csv
@@ -122,11 +123,11 @@ def _readings(
             raise ValueError(msg)
         out[b] = {}
         for key, spec in table.items():
-            if key not in ("mass", "com_distance"):
-                msg = f"measured.{b}: unknown quantity {key!r} (mass, com_distance)"
+            if key not in MEASURED_QUANTITIES:
+                msg = f"measured.{b}: unknown quantity {key!r} ({', '.join(MEASURED_QUANTITIES)})"
                 raise ValueError(msg)
             if isinstance(spec, int | float):
-                true = truth[b].mass if key == "mass" else truth[b].com_distance
+                true = getattr(truth[b], key)
                 sd = float(spec)
                 value = float(true + sd * rng.standard_normal())
             else:

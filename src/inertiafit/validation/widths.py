@@ -66,11 +66,7 @@ def simulated_widths(
             if isinstance(spec, Prior):
                 raise InputError(f"simulated_widths: prior of '{b}': give a name or a table")
             specs[b] = spec
-    measured: dict[str, dict[str, float]] = {}
-    for b, sd in design.weighed.items():
-        measured.setdefault(b, {})["mass"] = float(sd)
-    for b, sd in design.balanced.items():
-        measured.setdefault(b, {})["com_distance"] = float(sd)
+    measured = design.measured
     rows = []
     for r in range(replicates):
         manifest = simulate_study(
