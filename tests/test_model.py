@@ -176,3 +176,48 @@ def test_conditions_name_known_bodies():
         Model({"disk": p}, [Condition(("arm",), Observation.from_mean_se(1, 0.1))])
     with pytest.raises(InputError, match="body 'disk' is in no condition"):
         Model({"disk": p, "att": p}, [Condition(("att",), Observation.from_mean_se(1, 0.1))])
+
+
+def test_a_gravity_moment_no_body_of_the_box_has_is_reported_as_a_data_problem():
+    # A flat quasi-static torque gives M_g near 0: the trials are at fault, not the prior, and
+    # the message says so first (it used to blame the prior box).
+    p = load_prior("disk-3kg")
+    model = Model(
+        {"disk": p},
+        [
+            Condition(
+                ("disk",),
+                Observation.from_mean_se(0.594, 0.0105),
+                Observation.from_mean_se(0.0063, 0.002),
+            )
+        ],
+    )
+    with pytest.raises(
+        InputError,
+        match=r"^condition 'disk': its quasi-static trials give M_g = 0\.0063 \+- 0\.002 N m, "
+        r"outside the [\d.]+ to [\d.]+ N m that the prior 'disk-3kg' of body 'disk' allows: "
+        r"check those trials \(a flat, clipped or wrongly scaled torque, too short a sweep\?\) "
+        r"before the prior$",
+    ):
+        model.check_feasible()
+
+
+def test_a_weighed_mass_in_grams_is_named_as_such():
+    p = load_prior("disk-3kg")
+    model = Model(
+        {"disk": p},
+        [
+            Condition(
+                ("disk",),
+                Observation.from_mean_se(0.594, 0.0105),
+                Observation.from_mean_se(12.8, 0.05),
+            )
+        ],
+        measured={"disk": {"mass": Observation.from_mean_se(2920.0, 5.0)}},
+    )
+    with pytest.raises(
+        InputError,
+        match=r"^body 'disk': the weighed mass 2920 kg lies outside what its prior 'disk-3kg' "
+        r"allows \([\d.]+ to 4\.38 kg\) \(grams entered as kg\?\); check the reading",
+    ):
+        model.check_feasible()

@@ -569,18 +569,25 @@ def build_parser() -> argparse.ArgumentParser:
 _WORD = re.compile(r"(\(?)(\w+)((?:\[\d+\])?[,;:.)]?)")
 
 
-def _option_names(parser: argparse.ArgumentParser) -> set[str]:
-    """Every option's ``dest`` over the subcommands (``hdi_prob``, ``out``, ...)."""
+def _option_names(parser: argparse.ArgumentParser, command: str | None = None) -> set[str]:
+    """Every option's ``dest`` of ``command`` (all subcommands' when ``None``).
+
+    Only the command's own options: ``run`` has no ``--prior``, so a message of ``run`` that
+    starts with ``prior`` is about a prior, not an option.
+    """
     dests: set[str] = set()
     for action in parser._actions:  # argparse keeps its subparsers only here
         choices = getattr(action, "choices", None)
         if isinstance(choices, dict):
-            for sub in choices.values():
-                dests.update(a.dest for a in sub._actions if a.option_strings and a.dest != "help")
+            for name, sub in choices.items():
+                if command is None or name == command:
+                    dests.update(
+                        a.dest for a in sub._actions if a.option_strings and a.dest != "help"
+                    )
     return dests
 
 
-def _as_options(message: str, parser: argparse.ArgumentParser) -> str:
+def _as_options(message: str, parser: argparse.ArgumentParser, command: str | None = None) -> str:
     """A library message in the command line's words: argument names become option names.
 
     Library functions start a message about an argument with its name (``hdi_prob: expected
@@ -592,7 +599,7 @@ def _as_options(message: str, parser: argparse.ArgumentParser) -> str:
     is, and a word inside a path or a dotted key is never a whole word, so paths and keys that
     hold an argument's name never change.
     """
-    names = _option_names(parser)
+    names = _option_names(parser, command)
     words = message.split(" ")
     lead = _WORD.fullmatch(words[0])
     if lead is None or lead.group(1) or lead.group(2) not in names:
@@ -616,7 +623,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return handler(args)
     except InputError as exc:
-        print(f"inertiafit: error: {_as_options(str(exc), parser)}", file=sys.stderr)
+        shown = _as_options(str(exc), parser, getattr(args, "command", None))
+        print(f"inertiafit: error: {shown}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("inertiafit: interrupted", file=sys.stderr)

@@ -186,6 +186,49 @@ def feasible_measure(first_moment, inertia, prior: Box):
     return np.maximum(hi1 - lo1, 0.0) + np.maximum(hi2 - lo2, 0.0)
 
 
+def _check_data_in_box(cond: Condition, prior: Prior, gravity: float) -> None:
+    """A condition's ``M_g`` or ``I`` that no point of its body's box reaches is a data problem.
+
+    Each observable is held alone against the range the box allows (``M_g`` from ``g m x``,
+    ``I`` from ``m (rho^2 + x^2)`` at the box's corners), widened by the likelihood's 1e-4
+    quantiles. A flat or wrongly scaled quasi-static torque, or fast trials of another body, are
+    then said as what they are; the prior's bounds are blamed only when each value alone fits.
+    """
+    lo, up = prior.lower, prior.upper
+    ranges = {
+        "gravity_moment": (
+            gravity * lo["mass"] * lo["com_distance"],
+            gravity * up["mass"] * up["com_distance"],
+            cond.gravity_moment,
+            "M_g",
+            "N m",
+            "quasi-static trials",
+            "a flat, clipped or wrongly scaled torque, too short a sweep",
+        ),
+        "inertia": (
+            lo["mass"] * (lo["radius_of_gyration"] ** 2 + lo["com_distance"] ** 2),
+            up["mass"] * (up["radius_of_gyration"] ** 2 + up["com_distance"] ** 2),
+            cond.inertia,
+            "I",
+            "kg m^2",
+            "fast trials",
+            "a wrongly scaled torque or velocity, a wrong window",
+        ),
+    }
+    for low, high, obs, symbol, unit, trials, causes in ranges.values():
+        if obs is None:
+            continue
+        half = obs.quantile_halfwidth()
+        if obs.center + half >= low and obs.center - half <= high:
+            continue
+        raise InputError(
+            f"condition '{cond.label}': its {trials} give {symbol} = {obs.center:.4g} "
+            f"+- {obs.scale:.2g} {unit}, outside the {low:.4g} to {high:.4g} {unit} that the "
+            f"prior '{prior.name}' of body '{cond.bodies[0]}' allows: check those trials "
+            f"({causes}?) before the prior"
+        )
+
+
 def box_meets(
     first_moment: tuple[float, float], inertia: tuple[float, float], prior: Box, n: int = 4097
 ) -> bool:
@@ -909,12 +952,14 @@ class Model:
         bound ``m >= (M_g/g)^2 / I`` and its twins for ``x`` and ``rho``, over the region
         where the likelihood holds all but 1e-4 of its mass.
         """
+        self._check_measured_in_boxes()
         for cond in self.conditions:
             if len(cond.bodies) != 1 or not (cond.inertia and cond.gravity_moment):
                 continue
             if cond.offset_body or cond.has_added:  # its totals are not the body's own
                 continue
             prior = self.priors[cond.bodies[0]]
+            _check_data_in_box(cond, prior, self.gravity)
             g0 = cond.gravity_moment.center
             a0 = g0 / self.gravity
             b0 = cond.inertia.center
@@ -956,3 +1001,28 @@ class Model:
             raise InputError(
                 f"{where}: the prior box contains no solution for condition '{cond.label}': {why}"
             )
+
+    def _check_measured_in_boxes(self) -> None:
+        """A weighed mass or balance point that its body's prior box cannot hold is a data slip.
+
+        Said as such (with the unit slip it looks like), not as a density that no draw from the
+        boxes can make finite.
+        """
+        for body, readings in self.measured.items():
+            prior = self.priors[body]
+            for key, obs in readings.items():
+                quantity = MEASURED_QUANTITIES[key]
+                lo, hi = prior.lower[key], prior.upper[key]
+                half = obs.quantile_halfwidth()
+                if obs.center + half >= lo and obs.center - half <= hi:
+                    continue
+                ratio = obs.center / (lo if obs.center < lo else hi)
+                slip = {1000.0: "grams entered as kg?", 100.0: "cm entered as m?"}
+                hint = next(
+                    (f" ({text})" for f, text in slip.items() if 0.3 * f < ratio < 3 * f), ""
+                )
+                raise InputError(
+                    f"body '{body}': the {quantity.label} {obs.center:.4g} {quantity.unit} lies "
+                    f"outside what its prior '{prior.name}' allows ({lo:.4g} to {hi:.4g} "
+                    f"{quantity.unit}){hint}; check the reading and its unit, then the prior"
+                )
