@@ -146,7 +146,7 @@ def test_a_figure_registered_once_is_saved_and_embedded(study_out, tmp_path, mon
 
 def test_figures_drawn_in_worker_processes_are_the_same_files(study_out, tmp_path):
     result = load_result(study_out)
-    records = figure_records(result)[:2]
+    records = [r for r in figure_records(result) if r.stem.startswith("fast-trials-")][:2]
     serial, forked = tmp_path / "serial", tmp_path / "forked"
     serial.mkdir()
     forked.mkdir()
@@ -160,7 +160,26 @@ def test_figures_drawn_in_worker_processes_are_the_same_files(study_out, tmp_pat
             ).read_bytes()
 
 
-def test_report_redraws_without_sampling(study_out, capsys):
+def _copy(folder, tmp_path):
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    return copy
+
+
+def _only(monkeypatch, prefix):
+    """Redraw only the figures whose file stem starts with ``prefix`` (every figure is drawn by
+    test_every_registered_figure_is_written_and_shown_in_report_html)."""
+    every = figures_module.figure_records
+    monkeypatch.setattr(
+        outputs_module,
+        "figure_records",
+        lambda result: [r for r in every(result) if r.stem.startswith(prefix)],
+    )
+
+
+def test_report_redraws_without_sampling(study_out, tmp_path, capsys, monkeypatch):
+    _only(monkeypatch, "corner-")
+    study_out = _copy(study_out, tmp_path)  # redrawn with some figures: not the shared folder
     nc = (study_out / "posterior.nc").read_bytes()
     (study_out / "corner-weight.png").unlink()
     assert main(["report", str(study_out), "--formats", "png,svg", "--hdi-prob", "0.8"]) == 0
@@ -174,8 +193,9 @@ def test_report_redraws_without_sampling(study_out, capsys):
     assert "redrew" in capsys.readouterr().out
 
 
-def test_report_redraws_from_saved_outputs_only(study_out, tmp_path):
+def test_report_redraws_from_saved_outputs_only(study_out, tmp_path, monkeypatch):
     # the trial files are gone and the folder has moved: nothing but the outputs is read
+    _only(monkeypatch, "fast-trials-")
     moved = tmp_path / "moved"
     shutil.copytree(study_out, moved)
     trials_dir = study_out.parent / "study"
@@ -209,13 +229,12 @@ def test_report_redraws_from_saved_outputs_only(study_out, tmp_path):
         hidden.rename(trials_dir)
 
 
-def test_report_without_png_files_still_embeds_every_figure(study_out, monkeypatch):
+def test_report_without_png_files_still_embeds_every_figure(study_out, tmp_path, monkeypatch):
     # figures are drawn and let go one at a time; report.html gets a PNG of each all the same
     # (four of the study's twelve figures, one of each kind, keep the test short)
     every = figures_module.figure_records
     monkeypatch.setattr(outputs_module, "figure_records", lambda result: every(result)[::3])
-    for old in study_out.glob("*.pdf"):
-        old.unlink()
+    study_out = _copy(study_out, tmp_path)
     assert main(["report", str(study_out), "--formats", "pdf"]) == 0
     html = (study_out / "report.html").read_text()
     figures = sorted(p.stem for p in study_out.glob("*.pdf"))
