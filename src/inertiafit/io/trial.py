@@ -375,6 +375,19 @@ def compare_velocity(
     return VelocityCheck(ratio=ratio, stretches=int(r.size), agreement=agreement, spread=spread)
 
 
+def _unit_causes(factor: float) -> list[str]:
+    """The unit mix-ups (:data:`_UNIT_MIXUPS`) within 15 % of ``factor``."""
+    return [text for f, text in _UNIT_MIXUPS if abs(math.log(factor / f)) < 0.15]
+
+
+def _read_as(units: Mapping[str, str] | None) -> str:
+    """`` (read as time 's', angle 'deg', ...)`` for a message, or nothing."""
+    if not units:
+        return ""
+    shown = ", ".join(f"{q} {units[q]!r}" for q in ("time", "angle", "velocity") if q in units)
+    return f" (read as {shown})"
+
+
 #: Longest stretch (s) over which a velocity's travel is held against a still angle: short, so
 #: a velocity offset of an isometric trial (1-2 deg/s) never integrates to MIN_SWEEP in it.
 _TRAVEL_STRETCH = 0.2
@@ -417,20 +430,14 @@ def _check_travel(
     v_deg = math.degrees(float(np.max(np.abs(travel))))
     a_deg = math.degrees(float(np.ptp(angle)))
     factor = 1 / size if size > 0 else math.inf
-    causes = [text for f, text in _UNIT_MIXUPS if abs(math.log(factor / f)) < 0.15]
+    causes = _unit_causes(factor)
     if causes:
         cause = f"{causes[0]}?"
     elif a_deg < 1e-9 or factor > 1e4:
         cause = "a dead or unplugged angle channel?"
     else:
         cause = "no unit explains the factor"
-    read_as = ""
-    if units:
-        read_as = (
-            " (read as "
-            + ", ".join(f"{q} {units[q]!r}" for q in ("time", "angle", "velocity") if q in units)
-            + ")"
-        )
+    read_as = _read_as(units)
     raise InputError(
         f"{source}: column '{names['angle']}' moves {a_deg:.3g} deg in all while the integral "
         f"of column '{names['velocity']}' travels {v_deg:.3g} deg in {_TRAVEL_STRETCH:g} s "
@@ -479,15 +486,9 @@ def _unit_message(
     units: Mapping[str, str] | None,
 ) -> str:
     size = abs(check.ratio)
-    causes = [text for factor, text in _UNIT_MIXUPS if abs(math.log(size / factor)) < 0.15]
+    causes = _unit_causes(size)
     cause = f" ({causes[0]}?)" if causes else ""
-    read_as = ""
-    if units:
-        read_as = (
-            " (read as "
-            + ", ".join(f"{q} {units[q]!r}" for q in ("time", "angle", "velocity") if q in units)
-            + ")"
-        )
+    read_as = _read_as(units)
     sign = "" if check.ratio > 0 else ", and of the opposite sign"
     return (
         f"{source}: column '{names['velocity']}' is {size:.3g} x the derivative of column "
