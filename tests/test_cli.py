@@ -4,23 +4,12 @@ import sys
 
 import pandas as pd
 import pytest
+from cases import DISK_FIT
 
 from inertiafit.cli import main
 from inertiafit.posterior import SUMMARY_COLUMNS, open_posterior
 
-DISK = [
-    "fit",
-    "--prior",
-    "disk-3kg",
-    "--inertia",
-    "0.594",
-    "--inertia-se",
-    "0.0105",
-    "--gravity-moment",
-    "12.8",
-    "--gravity-moment-se",
-    "0.05",
-]
+DISK = DISK_FIT
 
 
 @pytest.fixture(scope="module")

@@ -15,6 +15,7 @@ import subprocess
 import sys
 
 import pytest
+from cases import DISK_FIT, PRIORS, TRUTH
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -23,24 +24,7 @@ from inertiafit.errors import InputError
 from inertiafit.io import load_study
 from inertiafit.simulate import simulate_study
 
-TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
-PRIORS = {
-    "attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225},
-    "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
-}
-FIT = [
-    "fit",
-    "--prior",
-    "disk-3kg",
-    "--inertia",
-    "0.594",
-    "--inertia-se",
-    "0.0105",
-    "--gravity-moment",
-    "12.8",
-    "--gravity-moment-se",
-    "0.05",
-]
+FIT = DISK_FIT
 SEED_MAX = 2**32 - 1
 
 

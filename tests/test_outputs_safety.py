@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import pytest
+from cases import DISK_FIT
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -28,19 +29,7 @@ from inertiafit.errors import InputError
 from inertiafit.io import outputs
 from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder
 
-FIT = [
-    "fit",
-    "--prior",
-    "disk-3kg",
-    "--inertia",
-    "0.594",
-    "--inertia-se",
-    "0.0105",
-    "--gravity-moment",
-    "12.8",
-    "--gravity-moment-se",
-    "0.05",
-]
+FIT = DISK_FIT
 FIT_OUTPUTS = {
     "summary.csv": "body,parameter,mean\ndisk-3kg,mass,2.885\n",
     "trials.csv": "file,condition,kind\n",

@@ -7,6 +7,7 @@ import shutil
 
 import pandas as pd
 import pytest
+from cases import PRIORS, TRUTH
 
 from inertiafit.cli import main
 from inertiafit.pipeline.redraw import load_result
@@ -18,11 +19,6 @@ from inertiafit.report import plots
 from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.simulate import simulate_study
 
-TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
-PRIORS = {
-    "attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225},
-    "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
-}
 IDEAL = """
 [bodies.weight.ideal]
 shape = "solid-disk"

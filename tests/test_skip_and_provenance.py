@@ -7,6 +7,7 @@ import shutil
 
 import pandas as pd
 import pytest
+from cases import PRIORS, TRUTH
 
 import inertiafit.io.manifest as manifest_module
 from inertiafit.cli import main
@@ -20,11 +21,6 @@ from inertiafit.processing.study import TRIAL_COLUMNS, process_study
 from inertiafit.report import outputs as outputs_module
 from inertiafit.simulate import simulate_study
 
-TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
-PRIORS = {
-    "attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225},
-    "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
-}
 FLAG = "velocity sign flipped to match d(angle)/dt"
 
 

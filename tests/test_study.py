@@ -7,6 +7,7 @@ import tomllib
 import numpy as np
 import pandas as pd
 import pytest
+from cases import PRIORS, TRUTH
 
 from inertiafit.cli import main
 from inertiafit.errors import InputError
@@ -14,11 +15,6 @@ from inertiafit.pipeline.study import analyse_study
 from inertiafit.processing.study import TRACE_COLUMNS, process_study
 from inertiafit.simulate import simulate_study
 
-TRUTH = {"attachment": (2.85, 0.12, 0.24), "weight": (2.92, 0.0354, 0.45)}
-PRIORS = {
-    "attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225},
-    "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
-}
 CONDITIONS = [("attachment",), ("attachment", "weight")]
 
 
