@@ -74,6 +74,30 @@ def test_csv_semicolon_and_decimal_comma(tmp_path):
     assert float(trial.torque[3]) == 7.5
 
 
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (
+            {"delimiter": 5},
+            r"options\.delimiter: expected one character such as ',' ';' or '\\t', got 5$",
+        ),
+        ({"delimiter": ""}, r"options\.delimiter: expected one character .*, got ''$"),
+        ({"delimiter": ",,"}, r"options\.delimiter: expected one character .*, got ',,'$"),
+        (
+            {"decimal": ""},
+            r"options\.decimal: expected one character such as '\.' or ',', got ''$",
+        ),
+        ({"delimiter": ";", "decimal": ";"}, r"options\.delimiter and options\.decimal are both"),
+    ],
+)
+def test_csv_delimiter_and_decimal_are_single_distinct_characters(tmp_path, options, message):
+    # pandas raised a TypeError or ValueError (a traceback) for each of these
+    path = write(tmp_path, "t.csv", generic_csv())
+    with pytest.raises(InputError, match=r"^\S*t\.csv: " + message) as err:
+        read_trial(path, **options)
+    assert "\n" not in str(err.value)
+
+
 def test_csv_radians_and_trailing_blank_lines(tmp_path):
     path = write(tmp_path, "r.csv", generic_csv() + "\n\n")
     trial = read_trial(path, units={"angle": "rad", "velocity": "rad/s"})

@@ -53,6 +53,19 @@ def load_table(
     InputError
         An empty or unparsable file, a missing or repeated column, a non-numeric cell.
     """
+    for key, mark, examples in (
+        ("delimiter", delimiter, "',' ';' or '\\t'"),
+        ("decimal", decimal, "'.' or ','"),
+    ):
+        if not (isinstance(mark, str) and len(mark) == 1 and mark not in "\r\n"):
+            raise InputError(
+                f"{path}: options.{key}: expected one character such as {examples}, got {mark!r}"
+            )
+    if delimiter == decimal:
+        raise InputError(
+            f"{path}: options.delimiter and options.decimal are both {delimiter!r}; "
+            "they must differ"
+        )
     try:
         frame = pd.read_csv(
             path,
