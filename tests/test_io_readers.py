@@ -314,6 +314,9 @@ def test_biodex_bad_rows(tmp_path):
     assert read_trial(path, format="biodex", set=2).sizes["time"] == 12
     with pytest.raises(InputError, match=r"r\.txt: no rows with Set = 3 \(Set values in the file"):
         read_trial(path, format="biodex", set=3)
+    for bad in ([], "2", 2.5, True, -1):  # a list ended in a numpy traceback
+        with pytest.raises(InputError, match=r"r\.txt: options\.set: expected a whole number"):
+            read_trial(path, format="biodex", set=bad)
 
 
 def test_biodex_missing_column_and_not_a_biodex_file(tmp_path):

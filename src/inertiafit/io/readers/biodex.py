@@ -142,6 +142,12 @@ def read_biodex(
         index[q] = names.index(name)
     filters = {"SET": set, "REP": rep}
     for key, wanted_value in filters.items():
+        whole = isinstance(wanted_value, int) and not isinstance(wanted_value, bool)
+        if wanted_value is not None and not (whole and wanted_value >= 0):
+            raise InputError(
+                f"{path}: options.{key.lower()}: expected a whole number (the "
+                f"{key.title()} to keep), got {wanted_value!r}"
+            )
         if wanted_value is not None and key not in names:
             raise InputError(
                 f"{path}: option {key.lower()} = {wanted_value} but the file has no "
