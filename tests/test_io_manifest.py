@@ -427,3 +427,14 @@ def test_a_body_name_in_any_script_with_spaces_is_accepted(study_dir):
     )
     study = load_study(manifest(study_dir, text))
     assert "Unterarm (links)" in study.bodies
+
+
+def test_a_trial_path_holding_nul_is_one_line(study_dir):
+    # NUL in a path made pathlib raise ValueError (a traceback) when the file was resolved
+    text = (BODIES + TRIALS).replace('file = "data/A_qs.csv"', 'file = "data/A\\u0000qs.csv"')
+    with pytest.raises(
+        InputError,
+        match=r"study\.toml: trials\[0\]\.file: a path cannot hold a NUL character, got "
+        r"'data/A\\x00qs\.csv'$",
+    ):
+        load_study(manifest(study_dir, text))

@@ -893,6 +893,8 @@ def _trial(
         raise _fail(f"{here}.file", "missing (the trial file, relative to the manifest)")
     if not isinstance(entry["file"], str) or not entry["file"].strip():
         raise _fail(f"{here}.file", f"expected a path (a string), got {entry['file']!r}")
+    if "\x00" in entry["file"]:
+        raise _fail(f"{here}.file", f"a path cannot hold a NUL character, got {entry['file']!r}")
     file = (base / Path(entry["file"]).expanduser()).resolve()
     if not file.is_file():
         raise _fail(f"{here}.file", f"file not found: {file}")
