@@ -142,8 +142,9 @@ def read_biodex(
         index[q] = names.index(name)
     filters = {"SET": set, "REP": rep}
     for key, wanted_value in filters.items():
-        whole = isinstance(wanted_value, int) and not isinstance(wanted_value, bool)
-        if wanted_value is not None and not (whole and wanted_value >= 0):
+        given: object = wanted_value  # a manifest can give anything
+        whole = isinstance(given, int) and not isinstance(given, bool) and given >= 0
+        if given is not None and not whole:
             raise InputError(
                 f"{path}: options.{key.lower()}: expected a whole number (the "
                 f"{key.title()} to keep), got {wanted_value!r}"

@@ -57,7 +57,8 @@ def load_table(
         ("delimiter", delimiter, "',' ';' or '\\t'"),
         ("decimal", decimal, "'.' or ','"),
     ):
-        if not (isinstance(mark, str) and len(mark) == 1 and mark not in "\r\n"):
+        given: object = mark  # a manifest can give anything
+        if not (isinstance(given, str) and len(given) == 1 and given not in "\r\n"):
             raise InputError(
                 f"{path}: options.{key}: expected one character such as {examples}, got {mark!r}"
             )
