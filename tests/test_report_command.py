@@ -7,7 +7,7 @@ import shutil
 
 import pandas as pd
 import pytest
-from cases import PRIORS, TRUTH
+from cases import DISK_FIT, PRIORS, TRUTH
 
 from inertiafit.cli import main
 from inertiafit.pipeline.redraw import load_result
@@ -240,26 +240,7 @@ def test_report_without_png_files_still_embeds_every_figure(study_out, tmp_path,
 
 def test_report_on_a_fit_folder(tmp_path):
     out = tmp_path / "fit"
-    assert (
-        main(
-            [
-                "fit",
-                "--prior",
-                "disk-3kg",
-                "--inertia",
-                "0.594",
-                "--inertia-se",
-                "0.0105",
-                "--gravity-moment",
-                "12.8",
-                "--gravity-moment-se",
-                "0.05",
-                "--out",
-                str(out),
-            ]
-        )
-        == 0
-    )
+    assert main([*DISK_FIT, "--out", str(out)]) == 0
     before = (out / "comparison.csv").read_text()
     assert main(["report", str(out)]) == 0
     assert (out / "report.html").is_file()
