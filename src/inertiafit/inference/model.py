@@ -186,6 +186,12 @@ def feasible_measure(first_moment, inertia, prior: Box):
     return np.maximum(hi1 - lo1, 0.0) + np.maximum(hi2 - lo2, 0.0)
 
 
+def _reaches(obs: Observation, low: float, high: float) -> bool:
+    """Whether ``[low, high]`` meets the values an observation allows (all but 1e-4 of them)."""
+    half = obs.quantile_halfwidth()
+    return obs.center + half >= low and obs.center - half <= high
+
+
 def _check_data_in_box(cond: Condition, prior: Prior, gravity: float) -> None:
     """A condition's ``M_g`` or ``I`` that no point of its body's box reaches is a data problem.
 
@@ -216,10 +222,7 @@ def _check_data_in_box(cond: Condition, prior: Prior, gravity: float) -> None:
         ),
     }
     for low, high, obs, symbol, unit, trials, causes in ranges.values():
-        if obs is None:
-            continue
-        half = obs.quantile_halfwidth()
-        if obs.center + half >= low and obs.center - half <= high:
+        if obs is None or _reaches(obs, low, high):
             continue
         raise InputError(
             f"condition '{cond.label}': its {trials} give {symbol} = {obs.center:.4g} "
@@ -1013,8 +1016,7 @@ class Model:
             for key, obs in readings.items():
                 quantity = MEASURED_QUANTITIES[key]
                 lo, hi = prior.lower[key], prior.upper[key]
-                half = obs.quantile_halfwidth()
-                if obs.center + half >= lo and obs.center - half <= hi:
+                if _reaches(obs, lo, hi):
                     continue
                 ratio = obs.center / (lo if obs.center < lo else hi)
                 slip = {1000.0: "grams entered as kg?", 100.0: "cm entered as m?"}

@@ -322,6 +322,11 @@ class VelocityCheck:
         return self.agreement >= VELOCITY_AGREEMENT and self.spread <= _VELOCITY_SPREAD
 
 
+def _integral(time: NDArray, velocity: NDArray) -> NDArray:
+    """The angle travelled since the first sample by the velocity's trapezoids (rad)."""
+    return np.concatenate(([0.0], np.cumsum(0.5 * np.diff(time) * (velocity[1:] + velocity[:-1]))))
+
+
 def compare_velocity(
     time: ArrayLike, angle: ArrayLike, velocity: ArrayLike
 ) -> VelocityCheck | None:
@@ -350,7 +355,7 @@ def compare_velocity(
     if n < 2:
         return None
     with np.errstate(all="ignore"):
-        integral = np.concatenate(([0.0], np.cumsum(0.5 * np.diff(t) * (omega[1:] + omega[:-1]))))
+        integral = _integral(t, omega)
         step = float(np.median(np.diff(t)))
         ratios = []
         for length in sorted({min(max(round(s / step), 1), n - 1) for s in _STRETCHES}):
@@ -414,9 +419,7 @@ def _check_travel(
     if n < 2:
         return
     with np.errstate(all="ignore"):
-        integral = np.concatenate(
-            ([0.0], np.cumsum(0.5 * np.diff(time) * (velocity[1:] + velocity[:-1])))
-        )
+        integral = _integral(time, velocity)
         step = float(np.median(np.diff(time)))
         longest = min(max(round(_TRAVEL_STRETCH / step), 1), n - 1)
         travel = integral[longest:] - integral[:-longest]

@@ -29,14 +29,13 @@ from inertiafit.errors import InputError
 from inertiafit.processing.filtering import source_of
 from inertiafit.processing.gravity import GravityFit
 from inertiafit.processing.inertia import InertiaEstimate
-from inertiafit.processing.window import MIN_SPEED_CHANGE
+from inertiafit.processing.window import MIN_SPEED_CHANGE, plateau_speed
 
 __all__ = [
     "SIGN_CORRELATION",
     "SPEED_TOLERANCE",
     "WINDOW_SPEED_CHANGE_MIN",
     "fast_trial_flags",
-    "plateau_speed",
 ]
 
 #: Largest relative difference between the measured plateau speed and the nominal ``speed``.
@@ -46,13 +45,6 @@ WINDOW_SPEED_CHANGE_MIN = 0.1
 #: Correlation of torque and gravity model over the constant-speed stretch below which the
 #: torque is taken to run against the model (consistent trials of the simulator show > 0.9).
 SIGN_CORRELATION = -0.5
-
-
-def plateau_speed(velocity: np.ndarray) -> float:
-    """The trial's constant speed (rad/s): median of ``|velocity|`` where it tops half its peak."""
-    u = np.abs(np.asarray(velocity, dtype=np.float64))
-    top = float(np.max(u)) if u.size else 0.0
-    return float(np.median(u[u >= 0.5 * top])) if top > 0 else 0.0
 
 
 def fast_trial_flags(
@@ -72,8 +64,9 @@ def fast_trial_flags(
     """
     source = source_of(trial)
     time = trial["time"].values
-    u = estimate.velocity if estimate.velocity is not None else trial["velocity"].values
-    plateau = plateau_speed(u)
+    v = estimate.velocity if estimate.velocity is not None else trial["velocity"].values
+    u = np.abs(np.asarray(v, dtype=np.float64))  # speed, whichever way the shaft turns
+    plateau = plateau_speed(u) if u.size and np.max(u) > 0 else 0.0
     flags: list[str] = []
     if speed_deg_s and plateau > 0:
         measured = math.degrees(plateau)
@@ -88,7 +81,7 @@ def fast_trial_flags(
     if window is not None and plateau > 0:
         i0, i1 = np.searchsorted(time, [estimate.window_start, estimate.window_end])
         i1 = min(int(i1), time.size - 1)
-        change = abs(float(u[i1]) - float(u[int(i0)])) / plateau
+        change = abs(float(v[i1]) - float(v[int(i0)])) / plateau
         where = f"[{estimate.window_start:.4g}, {estimate.window_end:.4g}] s"
         if change < WINDOW_SPEED_CHANGE_MIN:
             raise InputError(
@@ -116,17 +109,20 @@ def fast_trial_flags(
             flags.append(
                 f"lag: the fixed lag {lag:g} s is outside lag_bounds {lower:g} to {upper:g} s"
             )
-    flags.extend(_sign_flags(trial, estimate, gravity, plateau))
+    flags.extend(_sign_flags(trial, estimate, gravity, u, plateau))
     return flags
 
 
 def _sign_flags(
-    trial: xr.Dataset, estimate: InertiaEstimate, gravity: GravityFit, plateau: float
+    trial: xr.Dataset,
+    estimate: InertiaEstimate,
+    gravity: GravityFit,
+    u: np.ndarray,
+    plateau: float,
 ) -> list[str]:
-    """A flag when the cruise torque runs against the gravity model of the condition."""
+    """A flag when the cruise torque (speed ``u`` near ``plateau``) runs against the model."""
     if estimate.acceleration is None or plateau <= 0:
         return []
-    u = np.abs(estimate.velocity if estimate.velocity is not None else trial["velocity"].values)
     alpha = np.abs(estimate.acceleration)
     cruise = (u > 0.8 * plateau) & (alpha < 0.2 * float(np.max(alpha)))
     if cruise.sum() < 20:

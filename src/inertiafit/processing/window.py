@@ -68,6 +68,7 @@ __all__ = [
     "AccelerationWindow",
     "find_window",
     "find_window_arrays",
+    "plateau_speed",
 ]
 
 #: The window's ends: where the acceleration reaches this fraction of the fitted slope.
@@ -267,12 +268,17 @@ def _manual(t: NDArray, window: Sequence[float], source: str) -> tuple[int, int]
     return start, stop
 
 
-def _reference_speed(u: NDArray, speed_deg_s: float | None) -> float:
-    """The preset speed (rad/s), else the median speed where ``u`` exceeds half its top."""
-    if speed_deg_s:
-        return math.radians(float(speed_deg_s))
+def plateau_speed(u: NDArray) -> float:
+    """A trial's constant speed: the median of ``u`` where it exceeds half its top."""
     top = float(np.max(u))
     return float(np.median(u[u >= 0.5 * top]))
+
+
+def _reference_speed(u: NDArray, speed_deg_s: float | None) -> float:
+    """The preset speed (rad/s), else the plateau of ``u`` (:func:`plateau_speed`)."""
+    if speed_deg_s:
+        return math.radians(float(speed_deg_s))
+    return plateau_speed(u)
 
 
 def _rise(u: NDArray, reference: float) -> tuple[int, int, int]:
