@@ -95,14 +95,14 @@ def passive_prior_path(joint: str) -> Path:
         ``joint`` is not one of :data:`inertiafit.passive.JOINTS`, or its file is missing.
     """
     if joint not in JOINTS:
-        raise InputError(
-            f"passive prior: unknown joint {joint!r} (joints: {', '.join(JOINTS)})"
-        )
+        raise InputError(f"passive prior: unknown joint {joint!r} (joints: {', '.join(JOINTS)})")
     for folder in shipped_dirs("passive"):
         path = folder / f"{joint}.toml"
         if path.is_file():
             return path
-    raise InputError(f"passive prior '{joint}': the shipped file priors/passive/{joint}.toml is missing")
+    raise InputError(
+        f"passive prior '{joint}': the shipped file priors/passive/{joint}.toml is missing"
+    )
 
 
 def check_passive_entry(key: str, value: object, where: str) -> Any:
@@ -116,7 +116,9 @@ def check_passive_entry(key: str, value: object, where: str) -> Any:
     shown = "" if unit == "1" else unit
     if form == "normal":
         if not isinstance(value, dict) or set(value) != {"mean", "sd"}:
-            raise InputError(f"{where}: expected {{ mean = ..., sd = ... }} ({unit}), got {value!r}")
+            raise InputError(
+                f"{where}: expected {{ mean = ..., sd = ... }} ({unit}), got {value!r}"
+            )
         mean = check_finite(value["mean"], f"{where}.mean", shown)
         if key in _NON_NEGATIVE and mean < 0:
             raise InputError(f"{where}.mean: must not be negative ({unit}), got {value['mean']!r}")
@@ -203,6 +205,10 @@ def load_passive_prior(joint: str) -> dict[str, Any]:
             raise InputError(f"{here}.source: missing; every number cites where it comes from")
         if entry.get("unit") != unit:
             raise InputError(f"{here}.unit: expected {unit!r}, got {entry.get('unit')!r}")
-        raw = {k: entry[k] for k in ("mean", "sd") if k in entry} if form == "normal" else entry.get("value")
+        raw = (
+            {k: entry[k] for k in ("mean", "sd") if k in entry}
+            if form == "normal"
+            else entry.get("value")
+        )
         out[key] = {"value": check_passive_entry(key, raw, here), "source": source.strip()}
     return out
