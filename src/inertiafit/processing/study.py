@@ -520,6 +520,7 @@ def passive_basis(study: Study) -> PassiveBasis:
         range_high=math.radians(prior.range[1]),
         hysteresis=prior.hysteresis,
         curve_scale=prior.curve_scale,
+        damping=prior.damping,
     )
 
 
