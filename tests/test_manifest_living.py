@@ -303,6 +303,22 @@ BAD = {
             r"has no quasi-static trial; rest trials alone do not do"
         ),
     ),
+    "damping mean < 0": (
+        VALID.replace("range = [20.0, 140.0]\n", "damping = { mean = -0.1, sd = 0.1 }\n"),
+        r"passive\.damping\.mean: must not be negative \(N m s/rad\), got -0\.1",
+    ),
+    "stop_width 0": (
+        VALID.replace("range = [20.0, 140.0]\n", "stop_width = 0\n"),
+        r"passive\.stop_width: must be positive \(deg\), got 0",
+    ),
+    "an override with a unit": (
+        VALID.replace("sd = 0.3 }", 'sd = 0.3, unit = "N m/deg" }'),
+        r"passive\.stiffness: expected \{ mean = \.\.\., sd = \.\.\. \} \(N m/rad\), got",
+    ),
+    "a posture name that cannot name a file": (
+        VALID.replace("[postures.flat]", '[postures."flat/table"]'),
+        r"postures: posture 'flat/table': expected no '/' in a name",
+    ),
     'living = "yes"': (
         VALID.replace("living = true", 'living = "yes"'),
         r"bodies\.forearm\.living: expected true or false, got 'yes'",

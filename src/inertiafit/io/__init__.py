@@ -9,7 +9,7 @@
   :class:`TrialSpec`, with its :class:`Calibration` and a
   :class:`~inertiafit.mounting.Mounting` per condition (:attr:`Study.mountings`);
   :meth:`Study.read` reads one of its trials. A living body's joint is a
-  :class:`PassivePrior` (:attr:`Study.passive`), its setups :class:`Posture` s.
+  :class:`PassivePrior` (:attr:`Study.passive`); each setup of a trial is a :class:`Posture`.
 - :func:`shipped_dirs` finds the shipped ``priors/`` folder; :func:`load_passive_prior` reads a
   joint's passive prior file from it.
 
