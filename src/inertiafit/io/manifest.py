@@ -260,8 +260,9 @@ class PassivePrior:
 
     The joint's shipped prior (``priors/passive/<joint>.toml``,
     :func:`inertiafit.io.shipped.load_passive_prior`) with the manifest's overrides merged in.
-    Pairs are ``(mean, sd)`` of a normal prior (the model keeps moments, damping, hysteresis
-    and the curve's scale non-negative).
+    Pairs are ``(mean, sd)`` of a normal prior (not truncated: the fit integrates the passive
+    coefficients out in closed form; the means of moments, damping, hysteresis
+    and the curve's scale are non-negative).
 
     Attributes
     ----------
@@ -275,7 +276,8 @@ class PassivePrior:
     stop_moment : (float, float)
         ``a_lo``, ``a_hi`` (N m), each end stop's moment at its range end.
     stop_width : float
-        ``w`` (deg), the stops' e-folding width (fixed).
+        ``w`` (deg), the stops' typical e-folding width (each stop is fitted as two
+        exponentials, ``w / sqrt(2)`` and ``w sqrt(2)`` wide).
     range : (float, float)
         ``(theta_lo, theta_hi)`` (deg), the joint angles of the range ends, lo < hi.
     curve_scale : (float, float) or None

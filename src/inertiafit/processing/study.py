@@ -383,6 +383,13 @@ def process_study(
         statics = fit_statics(
             records, postures, passive_basis(study), where=f"{study.path}: [passive]"
         )
+        if len(statics.conditions) > 1:
+            notes.append(
+                f"{study.path}: conditions {', '.join(statics.conditions)} hold the living body "
+                "and share its passive curve; their gravity moments enter the posterior as "
+                "independent evidence, so the correlation through the passive curve is dropped "
+                "(intervals may be a little too narrow)"
+            )
         for cond in statics.conditions:
             gravity[cond] = statics.gravity_fit(cond, source=f"{study.path}: condition {cond}")
             notes.extend(f"{study.path}: condition {cond}: {f}" for f in gravity[cond].flags)
