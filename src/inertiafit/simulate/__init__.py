@@ -13,7 +13,10 @@ vertical. ``docs/processing.md`` ("Simulated trials") gives the numbers.
 
 - :func:`simulate_trial` makes one Trial (``xarray.Dataset``, SI units);
 - :func:`simulate_study` writes a whole study (CSV files and a ``study.toml`` manifest);
-- :func:`paper_study` writes the experiment of Son et al. (62 trials).
+- :func:`paper_study` writes the experiment of Son et al. (62 trials);
+- :func:`simulate_living_study` writes a study of a living limb (a joint's passive elastic
+  moment, damping and hysteresis; postures; rest trials), its joint's truth a
+  :class:`PassiveTruth`.
 
 Seeding: every function takes a seed or a :class:`numpy.random.Generator`; the same seed gives
 the same files, byte for byte. :func:`simulate_study` gives each trial its own child seed
@@ -22,7 +25,8 @@ the same files, byte for byte. :func:`simulate_study` gives each trial its own c
 The package's modules: :mod:`~inertiafit.simulate.signals` (the signal model,
 :class:`Noise`, :class:`Motion`, :class:`Body`, :func:`simulate_trial`),
 :mod:`~inertiafit.simulate.files` (the hand-written CSV and TOML),
-:mod:`~inertiafit.simulate.study` (:func:`simulate_study` and its ``truth.toml``) and
+:mod:`~inertiafit.simulate.study` (:func:`simulate_study` and its ``truth.toml``),
+:mod:`~inertiafit.simulate.living` (:func:`simulate_living_study`) and
 :mod:`~inertiafit.simulate.paper` (:data:`PAPER_TRUTH`, :data:`PAPER_PRIORS`,
 :func:`paper_study`).
 """
@@ -30,6 +34,7 @@ The package's modules: :mod:`~inertiafit.simulate.signals` (the signal model,
 from __future__ import annotations
 
 from inertiafit.io.units import FT_LBF
+from inertiafit.simulate.living import PassiveTruth, simulate_living_study
 from inertiafit.simulate.paper import PAPER_PRIORS, PAPER_TRUTH, paper_study
 from inertiafit.simulate.signals import KINDS, Body, Motion, Noise, simulate_trial
 from inertiafit.simulate.study import simulate_study
@@ -42,7 +47,9 @@ __all__ = [
     "Body",
     "Motion",
     "Noise",
+    "PassiveTruth",
     "paper_study",
+    "simulate_living_study",
     "simulate_study",
     "simulate_trial",
 ]

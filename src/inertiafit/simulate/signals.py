@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,8 +32,9 @@ from inertiafit.physics import inertia as _inertia
 
 __all__ = ["KINDS", "SAMPLINGS", "Body", "Motion", "Noise", "simulate_trial", "with_servo_ripple"]
 
-#: The kinds of trial: a slow move for the gravity model, a fast one for the inertia.
-KINDS = ("quasi-static", "fast")
+#: The kinds of trial: a slow move for the gravity model, a fast one for the inertia, and a
+#: quiet hold at one angle (a living joint's elastic moment there, without its viscous part).
+KINDS = ("quasi-static", "fast", "rest")
 #: How a channel is sampled: its value at the sample's time, or its mean over the period.
 SAMPLINGS = ("instant", "average")
 
@@ -161,6 +162,8 @@ class Motion:
         0 for none; not combined with ``overshoot``.
     settle_time : float
         Time (s) the servo takes to brake the start overshoot back to the preset speed.
+    hold : float
+        Duration (s) of a rest trial (``kind="rest"``): the shaft held still at ``start``.
     """
 
     start: float = 0.0
@@ -171,6 +174,7 @@ class Motion:
     rest: float = 0.2
     start_overshoot: float = 0.0
     settle_time: float = 0.05
+    hold: float = 5.0
 
 
 @dataclass(frozen=True)
@@ -526,91 +530,21 @@ def _motion(
     )
 
 
-def simulate_trial(
-    *,
-    inertia: float,
-    gravity_moment: float,
-    kind: str = "fast",
-    speed_deg_s: float | None = None,
-    phi: float = 0.0,
-    offset: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-    rate: float = 1000.0,
-    noise: Noise | None = None,
-    motion: Motion | None = None,
-    source: str = "simulated",
-    sampling: str = "instant",
-) -> xr.Dataset:
-    """Simulate one passive dynamometer trial of a rigid body.
+_Kinematics = tuple[np.ndarray, _Profile, np.ndarray, _Profile, np.ndarray]
 
-    Parameters
-    ----------
-    inertia : float
-        Moment of inertia about the joint, summed over the mounted bodies (kg m^2).
-    gravity_moment : float
-        Largest gravitational moment ``M_g``, summed over the mounted bodies (N m).
-    kind : {"fast", "quasi-static"}
-        A fast isokinetic move, or a quasi-static one (default speed 1 deg/s).
-    speed_deg_s : float, optional
-        Preset speed (deg/s); default 1 for quasi-static and 240 for fast trials.
-    phi : float
-        Angle between the device's zero and the gravity vertical (rad).
-    offset : float
-        Constant torque offset ``c`` (N m).
-    rng : numpy.random.Generator or int, optional
-        Random source or seed.
-    rate : float
-        Sampling rate (Hz).
-    noise : Noise, optional
-        Imperfections; default :class:`Noise` ().
-    motion : Motion, optional
-        Range, acceleration, overshoot and rest; default :class:`Motion` () (0 to 90 deg).
-    source : str
-        Recorded in ``attrs["source"]``.
-    sampling : {"instant", "average"}
-        ``"instant"`` (the default): each sample is the value at its time. The acceleration
-        jumps at the corners of the profile, so a corner between two samples puts up to half a
-        sample of ``I alpha`` in the torque that the velocity does not show: negligible at
-        1 kHz, a bias of several per cent on a 100 ms ramp at 100 Hz. ``"average"``: the
-        torque and the velocity are their means over the sample period centred on each
-        sample (an integrating front end), so the torque's ``I alpha`` always adds up to the
-        velocity's change; use it below 1 kHz.
 
-    Returns
-    -------
-    xarray.Dataset
-        A Trial (``time`` s; ``angle`` rad, ``velocity`` rad/s, ``torque`` N m) with extra
-        attrs: ``kind``, ``speed`` (deg/s), ``true_inertia``, ``true_gravity_moment``,
-        ``true_phi``, ``true_offset`` (including any per-trial shift), ``ramp_start`` and
-        ``ramp_end`` (s, the simulated uniform-acceleration period, in the velocity's time),
-        ``true_lag`` (s) and ``true_torque_gain`` (``Noise.lag``, ``Noise.torque_gain``).
+def _moving(
+    rng: np.random.Generator,
+    speed: float,
+    rate: float,
+    motion: Motion,
+    noise: Noise,
+    sampling: str,
+) -> _Kinematics:
+    """Times, profile and angle of a move, and the torque channel's profile and angle.
 
-    Raises
-    ------
-    ValueError
-        If ``kind`` or ``sampling`` is unknown, ``speed_deg_s`` or ``rate`` is not positive,
-        the servo ripple, start overshoot or hysteresis is negative, the range is too short for the
-        speed with the start overshoot, ``noise.lag`` is not below ``motion.rest`` in
-        magnitude or ``noise.torque_gain`` is not positive.
+    Draws the ripple's phase (and the servo ripple's, from a child generator) from ``rng``.
     """
-    if kind not in KINDS:
-        msg = f"kind must be one of {KINDS}, got {kind!r}"
-        raise ValueError(msg)
-    if sampling not in SAMPLINGS:
-        msg = f"sampling must be one of {SAMPLINGS}, got {sampling!r}"
-        raise ValueError(msg)
-    if speed_deg_s is None:
-        speed_deg_s = 1.0 if kind == "quasi-static" else 240.0
-    if not speed_deg_s > 0 or not rate > 0:
-        msg = f"speed_deg_s and rate must be positive, got {speed_deg_s!r}, {rate!r}"
-        raise ValueError(msg)
-    rng = np.random.default_rng(rng)
-    noise = Noise() if noise is None else noise
-    motion = Motion() if motion is None else motion
-    speed = speed_deg_s * DEG
-    _check_hard_imperfections(noise, motion)
-    _check_torque_channel(noise, motion)
-
     distance = abs(motion.end - motion.start)
     if motion.start_overshoot:
         t_up, t_flat, t_down = _start_overshoot_times(speed, motion)
@@ -648,6 +582,135 @@ def simulate_trial(
         torque_profile, torque_theta = _torque_kinematics(
             n, rate, speed, motion, noise, phase, servo_phase, sampling
         )
+    return t, profile, theta, torque_profile, torque_theta
+
+
+def _held(rate: float, motion: Motion) -> tuple[np.ndarray, _Profile, np.ndarray]:
+    """Times, profile and angle of a rest trial: the shaft still at ``motion.start``."""
+    n = math.ceil(motion.hold * rate) + 1
+    t = np.arange(n) / rate
+    still = _Profile(
+        velocity=np.zeros(n),
+        acceleration=np.zeros(n),
+        ramp_start=0.0,
+        ramp_end=0.0,
+        peak_speed=0.0,
+    )
+    return t, still, np.full(n, float(motion.start))
+
+
+def simulate_trial(
+    *,
+    inertia: float,
+    gravity_moment: float,
+    kind: str = "fast",
+    speed_deg_s: float | None = None,
+    phi: float = 0.0,
+    offset: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+    rate: float = 1000.0,
+    noise: Noise | None = None,
+    motion: Motion | None = None,
+    source: str = "simulated",
+    sampling: str = "instant",
+    extra_torque: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+) -> xr.Dataset:
+    """Simulate one passive dynamometer trial of a rigid body (and, optionally, more torque).
+
+    Parameters
+    ----------
+    inertia : float
+        Moment of inertia about the joint, summed over the mounted bodies (kg m^2).
+    gravity_moment : float
+        Largest gravitational moment ``M_g``, summed over the mounted bodies (N m).
+    kind : {"fast", "quasi-static", "rest"}
+        A fast isokinetic move, a quasi-static one (default speed 1 deg/s), or a rest trial: the
+        shaft held still at ``motion.start`` for ``motion.hold`` seconds (velocity and
+        acceleration exactly zero; the channel noise, drift and quantisation as in a move).
+    speed_deg_s : float, optional
+        Preset speed (deg/s); default 1 for quasi-static and 240 for fast trials; none for a
+        rest trial (``attrs["speed"]`` is then 0).
+    phi : float
+        Angle between the device's zero and the gravity vertical (rad).
+    offset : float
+        Constant torque offset ``c`` (N m).
+    rng : numpy.random.Generator or int, optional
+        Random source or seed.
+    rate : float
+        Sampling rate (Hz).
+    noise : Noise, optional
+        Imperfections; default :class:`Noise` ().
+    motion : Motion, optional
+        Range, acceleration, overshoot and rest; default :class:`Motion` () (0 to 90 deg).
+    source : str
+        Recorded in ``attrs["source"]``.
+    sampling : {"instant", "average"}
+        ``"instant"`` (the default): each sample is the value at its time. The acceleration
+        jumps at the corners of the profile, so a corner between two samples puts up to half a
+        sample of ``I alpha`` in the torque that the velocity does not show: negligible at
+        1 kHz, a bias of several per cent on a 100 ms ramp at 100 Hz. ``"average"``: the
+        torque and the velocity are their means over the sample period centred on each
+        sample (an integrating front end), so the torque's ``I alpha`` always adds up to the
+        velocity's change; use it below 1 kHz.
+    extra_torque : callable, optional
+        ``extra_torque(angle, velocity)`` (rad, rad/s arrays -> N m array): a torque added to
+        the rigid-body model, such as a living joint's passive and viscous moments
+        (:mod:`inertiafit.simulate.living`). It gets the true (noise-free) angle and velocity
+        at the torque channel's times (so ``noise.lag`` delays it too), and its torque goes
+        through the channel like the rest (noise added, ``torque_gain`` applied). None (the
+        default) leaves the trial exactly as without it.
+
+    Returns
+    -------
+    xarray.Dataset
+        A Trial (``time`` s; ``angle`` rad, ``velocity`` rad/s, ``torque`` N m) with extra
+        attrs: ``kind``, ``speed`` (deg/s), ``true_inertia``, ``true_gravity_moment``,
+        ``true_phi``, ``true_offset`` (including any per-trial shift), ``ramp_start`` and
+        ``ramp_end`` (s, the simulated uniform-acceleration period, in the velocity's time),
+        ``true_lag`` (s) and ``true_torque_gain`` (``Noise.lag``, ``Noise.torque_gain``).
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` or ``sampling`` is unknown, ``speed_deg_s`` or ``rate`` is not positive
+        (or a rest trial is given a speed, or ``motion.hold`` is not positive),
+        the servo ripple, start overshoot or hysteresis is negative, the range is too short for the
+        speed with the start overshoot, ``noise.lag`` is not below ``motion.rest`` in
+        magnitude or ``noise.torque_gain`` is not positive.
+    """
+    if kind not in KINDS:
+        msg = f"kind must be one of {KINDS}, got {kind!r}"
+        raise ValueError(msg)
+    if sampling not in SAMPLINGS:
+        msg = f"sampling must be one of {SAMPLINGS}, got {sampling!r}"
+        raise ValueError(msg)
+    if kind == "rest":
+        if speed_deg_s is not None:
+            msg = f"a rest trial has no speed, got speed_deg_s={speed_deg_s!r}"
+            raise ValueError(msg)
+        if motion is not None and not motion.hold > 0:
+            msg = f"motion: hold must be positive for a rest trial, got {motion.hold!r}"
+            raise ValueError(msg)
+    elif speed_deg_s is None:
+        speed_deg_s = 1.0 if kind == "quasi-static" else 240.0
+    if not (speed_deg_s is None or speed_deg_s > 0) or not rate > 0:
+        msg = f"speed_deg_s and rate must be positive, got {speed_deg_s!r}, {rate!r}"
+        raise ValueError(msg)
+    rng = np.random.default_rng(rng)
+    noise = Noise() if noise is None else noise
+    motion = Motion() if motion is None else motion
+    speed = 0.0 if speed_deg_s is None else speed_deg_s * DEG
+    _check_hard_imperfections(noise, motion)
+    _check_torque_channel(noise, motion)
+
+    if kind == "rest":
+        t, profile, theta = _held(rate, motion)
+        torque_profile, torque_theta = profile, theta
+    else:
+        t, profile, theta, torque_profile, torque_theta = _moving(
+            rng, speed, rate, motion, noise, sampling
+        )
+    n = t.size
 
     # The shift is relative to the quasi-static trial, whose offset is the reference.
     shift = 0.0
@@ -661,6 +724,8 @@ def simulate_trial(
         + shift
         + _ar1(rng, n, noise.drift_sd, rho)
     )
+    if extra_torque is not None:
+        torque += extra_torque(torque_theta, torque_profile.velocity)
     if noise.hysteresis:
         torque += _hysteresis_torque(torque_theta, noise.hysteresis, noise.hysteresis_angle)
     if noise.torque_sd:
@@ -676,7 +741,7 @@ def simulate_trial(
 
     attrs = {
         "kind": kind,
-        "speed": float(speed_deg_s),
+        "speed": 0.0 if speed_deg_s is None else float(speed_deg_s),
         "true_inertia": float(inertia),
         "true_gravity_moment": float(gravity_moment),
         "true_phi": float(phi),

@@ -19,7 +19,7 @@ from inertiafit.physics import GRAVITY
 from inertiafit.simulate.files import VELOCITY_UNITS, check_units, toml_value, write_trial_csv
 from inertiafit.simulate.signals import Body, Motion, Noise, simulate_trial
 
-__all__ = ["simulate_study"]
+__all__ = ["condition_totals", "manifest_head", "simulate_study", "trial_entry", "truth_lines"]
 
 
 #: Keys of a condition given as a mapping.
@@ -43,7 +43,9 @@ def _manifest_lines(mounting: Mounting) -> list[str]:
     return lines
 
 
-def _totals(mounting: Mounting, truth: Mapping[str, Body], gravity: float) -> tuple[float, float]:
+def condition_totals(
+    mounting: Mounting, truth: Mapping[str, Body], gravity: float
+) -> tuple[float, float]:
     """The condition's true ``I`` (kg m^2) and ``M_g`` (N m), moved body and added masses included."""
     values = {
         b: {
@@ -137,6 +139,76 @@ def _readings(
                 raise ValueError(msg)
             out[b][key] = {"value": value, "sd": sd}
     return out
+
+
+def manifest_head(
+    *,
+    name: str,
+    gravity: float,
+    truth: Mapping[str, Body],
+    priors: Mapping[str, str | Mapping[str, Any]],
+    readings: Mapping[str, Mapping[str, Mapping[str, float]]],
+    angle_unit: str,
+    torque_unit: str,
+    time_unit: str,
+    living: str = "",
+) -> list[str]:
+    """The manifest's lines before its ``[[trials]]``: name, gravity, bodies and defaults.
+
+    Each body's prior is ``priors[body]``, or an inline table of its true values (the prior
+    loader's default spread, +-50 %); ``readings`` are its weighings and balance points; the
+    body named ``living`` gets ``living = true``.
+    """
+    lines = [f"name = {toml_value(name)}", f"gravity = {toml_value(gravity)}", ""]
+    for b, body in truth.items():
+        spec = priors.get(b) or {
+            "mass": body.mass,
+            "radius_of_gyration": body.radius_of_gyration,
+            "com_distance": body.com_distance,
+        }
+        lines += [f"[bodies.{b}]", f"prior = {toml_value(spec)}"]
+        if b == living:
+            lines.append("living = true")
+        lines += [f"{key} = {toml_value(v)}" for key, v in readings.get(b, {}).items()]
+        lines.append("")
+    lines += [
+        "[defaults]",
+        'columns = { time = "time", angle = "angle", velocity = "velocity", torque = "torque" }',
+        "units = "
+        + toml_value(
+            {
+                "time": time_unit,
+                "angle": angle_unit,
+                "velocity": VELOCITY_UNITS[angle_unit],
+                "torque": torque_unit,
+            }
+        ),
+        "",
+    ]
+    return lines
+
+
+def trial_entry(
+    filename: str,
+    bodies: Sequence[str],
+    kind: str,
+    speed: float | None = None,
+    *,
+    extra: Sequence[str] = (),
+) -> list[str]:
+    """One ``[[trials]]`` entry of the manifest (file under ``data/``), then a blank line.
+
+    ``speed`` (deg/s) is written when given; ``extra`` are further ``key = value`` lines.
+    """
+    lines = [
+        "[[trials]]",
+        f"file = {toml_value('data/' + filename)}",
+        f"bodies = {toml_value(list(bodies))}",
+        f"kind = {toml_value(kind)}",
+    ]
+    if speed is not None:
+        lines.append(f"speed = {toml_value(speed)}")
+    return [*lines, *extra, ""]
 
 
 def simulate_study(
@@ -255,33 +327,19 @@ def simulate_study(
     # Spawned after the conditions' seeds, so that measuring leaves every trial's bytes alone.
     readings = _readings(measured, truth, root.spawn(1)[0]) if measured else {}
 
-    lines = [f"name = {toml_value(name)}", f"gravity = {toml_value(gravity)}", ""]
-    for b, body in truth.items():
-        spec = priors.get(b) or {
-            "mass": body.mass,
-            "radius_of_gyration": body.radius_of_gyration,
-            "com_distance": body.com_distance,
-        }
-        lines += [f"[bodies.{b}]", f"prior = {toml_value(spec)}"]
-        lines += [f"{key} = {toml_value(v)}" for key, v in readings.get(b, {}).items()]
-        lines.append("")
-    lines += [
-        "[defaults]",
-        'columns = { time = "time", angle = "angle", velocity = "velocity", torque = "torque" }',
-        "units = "
-        + toml_value(
-            {
-                "time": time_unit,
-                "angle": angle_unit,
-                "velocity": VELOCITY_UNITS[angle_unit],
-                "torque": torque_unit,
-            }
-        ),
-        "",
-    ]
+    lines = manifest_head(
+        name=name,
+        gravity=gravity,
+        truth=truth,
+        priors=priors,
+        readings=readings,
+        angle_unit=angle_unit,
+        torque_unit=torque_unit,
+        time_unit=time_unit,
+    )
 
     for label, mounting, cseed in zip(labels, mountings, condition_seeds, strict=True):
-        i_total, mg_total = _totals(mounting, truth, gravity)
+        i_total, mg_total = condition_totals(mounting, truth, gravity)
         plan = [("quasi-static", quasi_static_speed, f"{label}_quasistatic.csv")]
         plan += [
             ("fast", float(speed), f"{label}_{speed:g}_{k + 1:02d}.csv")
@@ -312,27 +370,22 @@ def simulate_study(
                 torque_unit=torque_unit,
                 time_unit=time_unit,
             )
-            lines += [
-                "[[trials]]",
-                f"file = {toml_value('data/' + filename)}",
-                f"bodies = {toml_value(list(mounting.bodies))}",
-                f"kind = {toml_value(kind)}",
-            ]
-            if kind == "fast":
-                lines.append(f"speed = {toml_value(speed)}")
-            lines += _manifest_lines(mounting)
-            lines.append("")
+            lines += trial_entry(
+                filename,
+                mounting.bodies,
+                kind,
+                speed if kind == "fast" else None,
+                extra=_manifest_lines(mounting),
+            )
 
     manifest = out / "study.toml"
     manifest.write_text("\n".join(lines), encoding="utf-8")
-    _write_truth(
-        out / "truth.toml", truth, mountings, labels, gravity, phi, offset, noise or Noise()
-    )
+    truth_text = truth_lines(truth, mountings, labels, gravity, phi, offset, noise or Noise())
+    (out / "truth.toml").write_text("\n".join(truth_text), encoding="utf-8")
     return manifest
 
 
-def _write_truth(
-    path: Path,
+def truth_lines(
     truth: Mapping[str, Body],
     conditions: Sequence[Mounting],
     labels: Sequence[str],
@@ -340,8 +393,8 @@ def _write_truth(
     phi: float,
     offset: float,
     noise: Noise,
-) -> None:
-    """Write ``truth.toml``: the true parameters of every body and condition (SI units).
+) -> list[str]:
+    """The lines of ``truth.toml``: the true parameters of every body and condition (SI units).
 
     ``lag`` (s) and ``torque_gain`` are the torque channel's (``Noise.lag``,
     ``Noise.torque_gain``); the inertias and moments are the bodies' own, before the gain.
@@ -367,7 +420,7 @@ def _write_truth(
             "",
         ]
     for label, mounting in zip(labels, conditions, strict=True):
-        i_total, mg_total = _totals(mounting, truth, gravity)
+        i_total, mg_total = condition_totals(mounting, truth, gravity)
         lines += [
             f"[conditions.{label}]",
             f"bodies = {toml_value(list(mounting.bodies))}",
@@ -376,4 +429,4 @@ def _write_truth(
             f"gravity_moment = {mg_total!r}",
             "",
         ]
-    path.write_text("\n".join(lines), encoding="utf-8")
+    return lines
