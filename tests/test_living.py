@@ -7,8 +7,8 @@ truth; the whole pipeline on simulated living studies is tested in test_living_s
 import math
 
 import numpy as np
-from scipy import stats
 import pytest
+from scipy import stats
 
 from inertiafit.passive import passive_moment
 from inertiafit.processing.gravity import fit_gravity_arrays
