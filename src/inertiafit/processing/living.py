@@ -385,6 +385,20 @@ class LivingStatics:
         rest = float(jac @ cov @ jac) - coupling * cov_uv
         return coupling, math.sqrt(max(rest, 0.0))
 
+    def damping(self, values, ses, sensitivities) -> tuple[float, float]:
+        """The viscous damping ``b`` over fast trials: ``(mean, sd)``.
+
+        The inverse-variance mean of the trials' estimates; its SD adds the static curve's
+        error, which every trial shares (``J_b Sigma J_b'``, ``J_b`` the trials' mean
+        sensitivity ``d b / d gamma``) and which the trials' own SEs do not show.
+        """
+        values, ses = np.asarray(values, float), np.asarray(ses, float)
+        weights = 1.0 / ses**2
+        mean = float(weights @ values / weights.sum())
+        jac = weights @ np.atleast_2d(np.asarray(sensitivities, float)) / weights.sum()
+        var = 1.0 / weights.sum() + float(jac @ self.covariance @ jac)
+        return mean, math.sqrt(var)
+
     def value(self, name: str) -> tuple[float, float]:
         """A coefficient's mean and SD."""
         i = self.index(name)

@@ -471,11 +471,11 @@ def process_study(
             if sens:
                 living_coupling[cond] = statics.inertia_coupling(cond, np.array(sens))
         if living_fast:
-            damping = inverse_variance_mean(
-                np.array([e.damping for _, e in living_fast], dtype=float),
-                np.array([e.damping_se for _, e in living_fast], dtype=float),
+            damping = statics.damping(
+                [e.damping for _, e in living_fast],
+                [e.damping_se for _, e in living_fast],
+                [e.damping_sensitivity for _, e in living_fast],
             )
-            damping = (float(damping[0]), float(damping[1]))
     trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=columns)
     return ProcessedStudy(
         study=study,
