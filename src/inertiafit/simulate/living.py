@@ -326,8 +326,8 @@ def simulate_living_study(
 
     Two conditions: the rigid bodies alone (label A; by default the elbow attachment), and
     the rigid bodies with the living one (label B; the attachment and a forearm). The rigid
-    condition has one quasi-static sweep up and ``trials_per_speed`` fast trials at every
-    speed, in the first posture, as :func:`~inertiafit.simulate.simulate_study` writes them.
+    condition has one quasi-static trial and ``trials_per_speed`` fast trials at every speed,
+    in the first posture, as :func:`~inertiafit.simulate.simulate_study` writes them.
     The living condition has, in every posture, quasi-static sweeps (``sweeps``: up, down),
     rest trials (``kind = "rest"``: a still hold of ``motion.hold`` s) at ``rest_angles`` and
     ``trials_per_speed`` fast trials at every speed and in every ``fast_directions``. Its torque
@@ -382,11 +382,13 @@ def simulate_living_study(
     gravity_rotation_sd : float
         SD (deg, > 0) of the postures' gravity rotations, written to the manifest and used to
         draw their truth.
-    angle_unit, torque_unit, time_unit, phi, offset, gravity, rate, quasi_static_speed, noise,
-    quasi_static_noise, motion, sampling, name
-        As :func:`~inertiafit.simulate.simulate_study` (``quasi_static_noise`` is also the
-        rest trials'). ``motion``'s range (either direction) is the sweeps' and the fast
-        trials'; its ``hold`` is the rest trials' duration.
+    angle_unit, torque_unit, time_unit, phi, offset, gravity, rate : str or float
+        As :func:`~inertiafit.simulate.simulate_study`.
+    quasi_static_speed, noise, quasi_static_noise, motion, sampling : float, Noise or str
+        As :func:`~inertiafit.simulate.simulate_study`; ``quasi_static_noise`` is also the
+        rest trials'. ``motion``'s range is the sweeps' and the fast trials' (up: towards the
+        larger angle), and the rigid condition's trials take it as given; its ``hold`` is the
+        rest trials' duration.
     priors : mapping of str to (str or mapping), optional
         Prior spec per body instead of the default inline table centred on its values (the
         prior loader's default spread, +-50 %).
