@@ -233,7 +233,7 @@ def test_unknown_keys(study_dir):
     expect(
         study_dir,
         BODIES.replace("ideal = {", "weight = 3\nideal = {") + TRIALS,
-        r"bodies\.weight\.weight: unknown key \(allowed: prior, ideal, mass, com_distance\)",
+        r"bodies\.weight\.weight: unknown key \(allowed: prior, ideal, mass, com_distance, living\)",
     )
 
 
@@ -279,7 +279,7 @@ def test_bad_kind_speed_window_and_torque_sign(study_dir):
     expect(
         study_dir,
         BODIES + TRIALS.replace('kind = "quasi-static"', 'kind = "slow"', 1),
-        r"trials\[0\]\.kind: expected \"quasi-static\" or \"fast\", got 'slow'",
+        r"trials\[0\]\.kind: expected \"quasi-static\", \"fast\" or \"rest\", got 'slow'",
     )
     expect(
         study_dir,

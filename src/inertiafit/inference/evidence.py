@@ -115,7 +115,11 @@ def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
             obs_g = Observation.from_mean_se(
                 g.gravity_moment, g.gravity_moment_se, where=f"{where} gravity moment"
             )
-            if obs_i is not None:
+            if obs_i is not None and label in processed.living_coupling:
+                # a living body: the static curve's error over all its coefficients
+                coupling, shared = processed.living_coupling[label]
+                obs_i = obs_i.with_shared_error(shared)
+            elif obs_i is not None:
                 sens = processed.sensitivity.loc[fast["file"], ["sin", "cos", "offset"]]
                 coupling, shared = shared_gravity_error(g.coefficients, g.covariance, sens)
                 obs_i = obs_i.with_shared_error(shared)

@@ -46,7 +46,6 @@ import json
 import math
 import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -56,6 +55,7 @@ from scipy import special
 from inertiafit._checks import check_finite, check_positive
 from inertiafit.errors import InputError
 from inertiafit.inference import anthropometric
+from inertiafit.io.shipped import shipped_dirs
 from inertiafit.io.units import si_factors
 from inertiafit.physics import PARAMETERS, UNITS
 
@@ -519,22 +519,10 @@ def _shaped_bounds(entry: dict, p: str, kind: str, scale: float, where: str):
     return mean, lo, hi, {"kind": kind, "mean": mean, "sd": sd}
 
 
-def _shipped_dirs() -> list[Path]:
-    """Folders holding shipped prior files: inside the wheel, or the source tree's priors/."""
-    dirs = []
-    packaged = Path(str(resources.files("inertiafit"))) / "priors"
-    if packaged.is_dir():
-        dirs.append(packaged)
-    source_tree = Path(__file__).resolve().parents[3] / "priors"  # src/inertiafit/inference/
-    if source_tree.is_dir():
-        dirs.append(source_tree)
-    return dirs
-
-
 def available_priors() -> dict[str, Path]:
     """Shipped prior files by name (file stem)."""
     found: dict[str, Path] = {}
-    for d in _shipped_dirs():
+    for d in shipped_dirs():  # the folder's own files: priors/passive/ etc. are not bodies'
         for f in sorted(d.glob("*.toml")):
             found.setdefault(f.stem, f)
     return found

@@ -56,6 +56,33 @@ body moved that far along the lever, m or ``{ value, unit }``) and ``added_mass`
 mass) are part of its condition: trials that differ in them are different conditions
 (a :class:`~inertiafit.mounting.Mounting` each, :attr:`Study.mountings`), labelled by its
 :attr:`~inertiafit.mounting.Mounting.label`.
+
+Living segments
+---------------
+::
+
+    [bodies.forearm]
+    prior = "..."
+    living = true                       # at most one body per study
+    [passive]                           # required with a living body, refused without one
+    joint = "elbow"                     # "elbow", "knee", "ankle" or "generic"
+    joint_angle_at_zero = 90            # deg: joint angle = this + the device's angle
+    stiffness = { mean = 1.1, sd = 0.45 }   # optional overrides of priors/passive/<joint>.toml
+    range = [30.0, 150.0]
+    [postures.seated]
+    gravity_rotation = 0                # deg, required
+    gravity_rotation_sd = 2             # deg (default 2), or "free"
+    axis_tilt = 0                       # deg in [0, 90] (default 0)
+    [[trials]]
+    posture = "seated"                  # (or in [defaults]) on every trial when postures exist
+    kind = "rest"                       # a quiet hold: only with the living body mounted
+
+A living body (:attr:`BodySpec.living`) brings its joint's passive prior
+(:class:`PassivePrior`, :attr:`Study.passive`): the shipped file
+``priors/passive/<joint>.toml`` with the ``[passive]`` table's overrides merged in, each number's
+source recorded. Postures (:class:`Posture`, :attr:`Study.postures`) do not split conditions:
+a condition is what is mounted, and :attr:`TrialSpec.posture` says which setup a trial was
+recorded in.
 """
 
 from __future__ import annotations
@@ -70,7 +97,7 @@ from typing import Any
 
 import xarray as xr
 
-from inertiafit._checks import check_positive
+from inertiafit._checks import check_finite, check_interval, check_positive
 from inertiafit.errors import InputError
 from inertiafit.io.readers import (
     available_formats,
@@ -80,25 +107,37 @@ from inertiafit.io.readers import (
     read_trial,
     reader_options,
 )
+from inertiafit.io.shipped import (
+    CURVE_JOINTS,
+    PASSIVE_ENTRIES,
+    check_passive_entry,
+    load_passive_prior,
+)
 from inertiafit.io.trial import apply_torque_sign
 from inertiafit.io.units import unit_factor
 from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
+from inertiafit.passive import JOINTS
 from inertiafit.physics import GRAVITY
 
 __all__ = [
     "ADDED_MASS_KEYS",
     "BODY_KEYS",
     "CALIBRATION_KEYS",
+    "DEFAULT_GRAVITY_ROTATION_SD",
     "DEFAULT_KEYS",
     "KINDS",
     "MAX_TORQUE_GAIN_SD",
     "MEASURED_KEYS",
     "ON_TRIAL_ERROR",
+    "PASSIVE_KEYS",
+    "POSTURE_KEYS",
     "TOP_KEYS",
     "TRIAL_KEYS",
     "BodySpec",
     "Calibration",
+    "PassivePrior",
+    "Posture",
     "Study",
     "TrialSpec",
     "file_sha256",
@@ -106,7 +145,9 @@ __all__ = [
     "read_trial_spec",
 ]
 
-KINDS = ("quasi-static", "fast")
+#: Trial kinds: a slow sweep (gravity, and a living joint's passive moment), a fast isokinetic
+#: move (inertia) and a quiet hold at one angle of a living body (``"rest"``).
+KINDS = ("quasi-static", "fast", "rest")
 #: What a trial that cannot be read or processed does to the study: stop it (the default) or be
 #: skipped, listed in ``trials.csv``, the warnings and ``report.html``.
 ON_TRIAL_ERROR = ("stop", "skip")
@@ -119,8 +160,17 @@ TOP_KEYS = (
     "trials",
     "on_trial_error",
     "calibration",
+    "passive",
+    "postures",
 )
-BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES)
+BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES, "living")
+#: Keys of the ``[passive]`` table: the living body's joint, where the device's zero sits on it,
+#: and overrides of the joint's shipped prior (``priors/passive/<joint>.toml``).
+PASSIVE_KEYS = ("joint", "joint_angle_at_zero", *PASSIVE_ENTRIES)
+#: Keys of a ``[postures.<name>]`` table (deg).
+POSTURE_KEYS = ("gravity_rotation", "gravity_rotation_sd", "axis_tilt")
+#: A posture's ``gravity_rotation_sd`` (deg) when the manifest gives none.
+DEFAULT_GRAVITY_ROTATION_SD = 2.0
 #: Keys of a measured quantity's table (``[bodies.<name>] mass`` or ``com_distance``: the
 #: registry :data:`inertiafit.measured.MEASURED_QUANTITIES`).
 MEASURED_KEYS = ("value", "sd", "resolution", "unit")
@@ -128,7 +178,16 @@ MEASURED_KEYS = ("value", "sd", "resolution", "unit")
 ADDED_MASS_KEYS = ("mass", "com_distance", "radius_of_gyration")
 #: Keys of a trial that describe its mounting; never in ``[defaults]``.
 _MOUNTING_KEYS = ("offset", "added_mass")
-DEFAULT_KEYS = ("format", "columns", "units", "calibration", "torque_sign", "options", "lag")
+DEFAULT_KEYS = (
+    "format",
+    "columns",
+    "units",
+    "calibration",
+    "torque_sign",
+    "options",
+    "lag",
+    "posture",
+)
 #: Keys of the top-level ``[calibration]`` table (:class:`Calibration`).
 CALIBRATION_KEYS = ("torque_gain_sd", "angle_offset_sd", "lag", "lag_bounds", "max_lag_spread")
 #: Largest lag (s) a manifest may state or search: a lag is milliseconds, not seconds.
@@ -157,12 +216,92 @@ class BodySpec:
         a balance point, from the joint axis in the body's own mounting): ``(value, sd)`` in
         SI units; ``sd`` is ``resolution / sqrt(12)`` for a reading given with its
         resolution. Empty when none.
+    living : bool
+        A living segment (``living = true``): held by a joint whose passive elastic moment,
+        damping and hysteresis (:attr:`Study.passive`) add to the moments of the conditions
+        that hold it. At most one per study. Default false: a rigid body.
     """
 
     name: str
     prior: str | dict[str, Any]
     ideal: dict[str, Any] | None = None
     measured: dict[str, tuple[float, float]] = field(default_factory=dict)
+    living: bool = False
+
+
+@dataclass(frozen=True)
+class Posture:
+    """One ``[postures.<name>]`` table: how a setup turns gravity about the device's axis.
+
+    Attributes
+    ----------
+    name : str
+        The key under ``[postures]``.
+    gravity_rotation : float
+        ``r_p`` (deg): the rotation of gravity about the axis against the posture with 0; the
+        gravity phase of every body mounted becomes ``phi + r_p``.
+    gravity_rotation_sd : float
+        Its prior SD (deg), default 2; ``math.inf`` when the manifest says ``"free"`` (fitted).
+    axis_tilt : float
+        ``t_p`` (deg, 0 to 90): the axis's tilt from horizontal; the gravity moment is
+        multiplied by ``cos(t_p)`` (90: a vertical axis, motion in the horizontal plane, no
+        gravity moment). Default 0.
+    """
+
+    name: str
+    gravity_rotation: float
+    gravity_rotation_sd: float = DEFAULT_GRAVITY_ROTATION_SD
+    axis_tilt: float = 0.0
+
+
+@dataclass(frozen=True)
+class PassivePrior:
+    """The ``[passive]`` table: the living body's joint and the priors of its passive model.
+
+    The joint's shipped prior (``priors/passive/<joint>.toml``,
+    :func:`inertiafit.io.shipped.load_passive_prior`) with the manifest's overrides merged in.
+    Pairs are ``(mean, sd)`` of a normal prior (not truncated: the fit integrates the passive
+    coefficients out in closed form; the means of moments, damping, hysteresis
+    and the curve's scale are non-negative).
+
+    Attributes
+    ----------
+    joint : {"elbow", "knee", "ankle", "generic"}
+        Picks the prior file (and, for the knee and the ankle, the literature curve ``P0``).
+    joint_angle_at_zero : float
+        The anatomical joint angle (deg, flexion positive; the ankle's plantarflexion) at the
+        device's angle 0: joint angle = ``joint_angle_at_zero`` + device angle.
+    stiffness : (float, float)
+        ``k`` (N m/rad), the linear spring (for the knee and the ankle: around the curve).
+    stop_moment : (float, float)
+        ``a_lo``, ``a_hi`` (N m), each end stop's moment at its range end.
+    stop_width : float
+        ``w`` (deg), the stops' typical e-folding width (each stop is fitted as two
+        exponentials, ``w / sqrt(2)`` and ``w sqrt(2)`` wide).
+    range : (float, float)
+        ``(theta_lo, theta_hi)`` (deg), the joint angles of the range ends, lo < hi.
+    curve_scale : (float, float) or None
+        ``s``, which multiplies the literature curve; ``None`` for the elbow and a generic
+        joint (no curve).
+    damping : (float, float)
+        ``b`` (N m s/rad), viscous damping.
+    hysteresis : (float, float)
+        ``h`` (N m), a moment against the direction of motion.
+    sources : dict of str to str
+        Entry -> where its number comes from: the prior file's citation, or ``"manifest"``
+        for an override.
+    """
+
+    joint: str
+    joint_angle_at_zero: float
+    stiffness: tuple[float, float]
+    stop_moment: tuple[float, float]
+    stop_width: float
+    range: tuple[float, float]
+    curve_scale: tuple[float, float] | None
+    damping: tuple[float, float]
+    hysteresis: tuple[float, float]
+    sources: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -213,10 +352,11 @@ class TrialSpec:
         What is mounted: the bodies (also :attr:`bodies`, in the manifest's ``[bodies]``
         order), a body moved along the lever (``offset``) and known added masses
         (``added_mass``, sorted).
-    kind : {"quasi-static", "fast"}
-        Slow passive move (gives ``M_g``) or fast isokinetic move (gives ``I``).
+    kind : {"quasi-static", "fast", "rest"}
+        Slow passive move (gives ``M_g``), fast isokinetic move (gives ``I``) or a quiet hold
+        of a living body at one angle (the gravity and passive elastic moment there).
     speed : float or None
-        Nominal speed (deg/s); always set for fast trials.
+        Nominal speed (deg/s); always set for fast trials, never for rest trials.
     format : str
         Reader name (see :func:`inertiafit.io.available_formats`).
     columns, units : dict of str to str
@@ -240,6 +380,10 @@ class TrialSpec:
         The torque channel's lag (s) the manifest fixes for this trial: its own ``lag``, else
         ``[defaults] lag``, else a number in ``[calibration] lag``; ``None`` when the lag is
         to be estimated (fast trials).
+    posture : str
+        The trial's posture (a key of :attr:`Study.postures`), its own ``posture`` or
+        ``[defaults] posture``; ``""`` when the manifest defines no postures. Postures do not
+        split conditions: a condition is what is mounted.
     """
 
     file: Path
@@ -256,6 +400,7 @@ class TrialSpec:
     options: dict[str, Any] = field(default_factory=dict)
     index: int = 0
     lag: float | None = None
+    posture: str = ""
 
     @property
     def bodies(self) -> tuple[str, ...]:
@@ -308,6 +453,11 @@ class Study:
         skipped and listed (see :func:`inertiafit.processing.study.process_study`).
     calibration : Calibration
         The ``[calibration]`` table (defaults when absent).
+    passive : PassivePrior or None
+        The ``[passive]`` table of the living body's joint; ``None`` in a rigid study.
+    postures : dict of str to Posture
+        The ``[postures]`` tables, in manifest order; empty when none (every trial then in one
+        posture with no gravity rotation).
     """
 
     name: str
@@ -319,6 +469,13 @@ class Study:
     description: str = ""
     on_trial_error: str = "stop"
     calibration: Calibration = field(default_factory=Calibration)
+    passive: PassivePrior | None = None
+    postures: dict[str, Posture] = field(default_factory=dict)
+
+    @property
+    def living_body(self) -> str:
+        """The name of the living body (``living = true``), ``""`` when every body is rigid."""
+        return next((name for name, b in self.bodies.items() if b.living), "")
 
     @property
     def conditions(self) -> dict[str, tuple[str, ...]]:
@@ -364,7 +521,8 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
         The Trial of :func:`inertiafit.io.read_trial`, torque signed by
         ``spec.torque_sign`` (:func:`inertiafit.io.trial.apply_torque_sign`), with extra attrs
         ``condition``, ``kind``, ``torque_sign`` and, when set, ``speed`` (deg/s),
-        ``window`` (s, two numbers) and ``lag`` (s, the torque channel's fixed lag).
+        ``window`` (s, two numbers), ``lag`` (s, the torque channel's fixed lag) and
+        ``posture`` (its name).
 
     Raises
     ------
@@ -388,6 +546,8 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
         trial.attrs["window"] = list(spec.window)
     if spec.lag is not None:
         trial.attrs["lag"] = spec.lag
+    if spec.posture:
+        trial.attrs["posture"] = spec.posture
     return trial
 
 
@@ -578,6 +738,14 @@ def load_study(path: str | Path) -> Study:
         ``resolution`` or neither, an unknown unit), a bad ``offset`` (not exactly one
         mounted body, zero or not finite) or ``added_mass``, either of those in
         ``[defaults]``, no trials, or a condition with fast trials but no quasi-static one.
+        Of living segments: ``living`` not a bool, two living bodies, a living body without
+        ``[passive]`` or ``[passive]`` without one, an unknown joint or key, a bad override
+        (an SD not positive, a ``range`` not increasing, ``curve_scale`` of a joint without a
+        literature curve), a bad posture (``gravity_rotation`` missing or outside (-360, 360)
+        deg, ``gravity_rotation_sd`` not positive nor ``"free"``, ``axis_tilt`` outside
+        [0, 90] deg), a trial's ``posture`` undefined, named without ``[postures]`` or missing
+        with them, a rest trial without the living body or with a ``speed``, and a condition
+        of the living body with rest trials but no quasi-static one.
     """
     path = Path(path).expanduser().resolve()
     where = str(path)
@@ -614,6 +782,9 @@ def load_study(path: str | Path) -> Study:
 
     calibration = _calibration(doc.get("calibration", {}), where=where)
     bodies = _bodies(doc, where=where)
+    living = next((b for b, spec in bodies.items() if spec.living), "")
+    passive = _passive(doc.get("passive"), living=living, where=where)
+    postures = _postures(doc.get("postures", {}), where=where)
     raw_defaults = _table(
         doc.get("defaults", {}), where=f"{where}: defaults", what="reader settings"
     )
@@ -629,6 +800,10 @@ def load_study(path: str | Path) -> Study:
                 f"{where}: defaults.{key}", f"unknown key (allowed: {', '.join(DEFAULT_KEYS)})"
             )
     defaults = _settings(raw_defaults, where=f"{where}: defaults")
+    if "posture" in raw_defaults:
+        defaults["posture"] = _posture_name(
+            raw_defaults["posture"], postures, where=f"{where}: defaults.posture"
+        )
 
     raw_trials = doc.get("trials")
     if raw_trials is None or raw_trials == []:
@@ -641,7 +816,16 @@ def load_study(path: str | Path) -> Study:
     if not isinstance(calibration.lag, str):  # a study-wide fixed lag
         defaults.setdefault("lag", calibration.lag)
     trials = [
-        _trial(entry, i, defaults=defaults, order=order, base=path.parent, where=where)
+        _trial(
+            entry,
+            i,
+            defaults=defaults,
+            order=order,
+            base=path.parent,
+            where=where,
+            postures=postures,
+            living=living,
+        )
         for i, entry in enumerate(raw_trials)
     ]
 
@@ -666,6 +850,14 @@ def load_study(path: str | Path) -> Study:
                 f"condition '{condition}' has fast trials ({listed}) but no quasi-static trial; "
                 'add one with kind = "quasi-static" (it gives the gravitational moment)',
             )
+        rest = [t.index for t in members if t.kind == "rest"]
+        if rest and not any(t.kind == "quasi-static" for t in members):
+            raise _fail(
+                f"{where}: trials[{rest[0]}].kind",
+                f"condition '{condition}' holds the living body '{living}' but has no "
+                "quasi-static trial; rest trials alone do not do: add one with kind = "
+                '"quasi-static" (it gives the gravity and passive curve)',
+            )
     return Study(
         name=name,
         path=path,
@@ -676,6 +868,8 @@ def load_study(path: str | Path) -> Study:
         description=description,
         on_trial_error=on_trial_error,
         calibration=calibration,
+        passive=passive,
+        postures=postures,
     )
 
 
@@ -686,8 +880,8 @@ MAX_BODY_NAME = 64
 _BODY_NAME_FORBIDDEN = frozenset('/\\:*?"<>|+@')
 
 
-def _check_body_name(name: str, where: str) -> None:
-    """A body name must be safe as part of a file name and a condition label."""
+def _check_name(name: str, where: str, what: str = "body") -> None:
+    """A body's (or posture's) name must be safe as part of a file name and a condition label."""
     shown = repr(name[:40] + ("..." if len(name) > 40 else ""))
     bad = sorted({c for c in name if c in _BODY_NAME_FORBIDDEN or not c.isprintable()})
     if not name.strip() or name != name.strip() or name.startswith("."):
@@ -699,7 +893,7 @@ def _check_body_name(name: str, where: str) -> None:
         why = f"no {listed} in a name (it names output files and condition labels)"
     else:
         return
-    raise _fail(f"{where}: bodies", f"body {shown}: expected {why}")
+    raise _fail(where, f"{what} {shown}: expected {why}")
 
 
 def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
@@ -707,9 +901,9 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
     if not raw:
         raise _fail(f"{where}: bodies", "no bodies; add a [bodies.<name>] table with a prior")
     raw = _table(raw, where=f"{where}: bodies", what="[bodies.<name>] tables")
-    bodies = {}
+    bodies: dict[str, BodySpec] = {}
     for name, raw_entry in raw.items():
-        _check_body_name(name, where)
+        _check_name(name, f"{where}: bodies")
         here = f"{where}: bodies.{name}"
         entry = _table(raw_entry, where=here, what="prior = ...")
         for key in entry:
@@ -734,8 +928,132 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
             for key in MEASURED_QUANTITIES
             if key in entry
         }
-        bodies[name] = BodySpec(name=name, prior=prior, ideal=ideal, measured=measured)
+        living = entry.get("living", False)
+        if not isinstance(living, bool):
+            raise _fail(f"{here}.living", f"expected true or false, got {living!r}")
+        if living:
+            other = next((b for b, spec in bodies.items() if spec.living), None)
+            if other is not None:
+                raise _fail(
+                    f"{here}.living",
+                    f"one living body per study; '{other}' is living already (the passive "
+                    "model belongs to one joint)",
+                )
+        bodies[name] = BodySpec(
+            name=name, prior=prior, ideal=ideal, measured=measured, living=living
+        )
     return bodies
+
+
+def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:
+    """The ``[passive]`` table: the joint's shipped prior with the manifest's overrides."""
+    here = f"{where}: passive"
+    if value is None:
+        if living:
+            raise _fail(
+                here,
+                f"missing; body '{living}' is living: add a [passive] table with joint "
+                f"({', '.join(JOINTS)}) and joint_angle_at_zero (deg)",
+            )
+        return None
+    table = _table(value, where=here, what="joint = ..., joint_angle_at_zero = ...")
+    if not living:
+        raise _fail(
+            here,
+            "no body is living; mark the living one with living = true under "
+            "[bodies.<name>], or remove [passive]",
+        )
+    for key in table:
+        if key not in PASSIVE_KEYS:
+            raise _fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(PASSIVE_KEYS)})")
+    joint = table.get("joint")
+    if joint is None:
+        raise _fail(f"{here}.joint", f"missing; one of {', '.join(JOINTS)}")
+    if joint not in JOINTS:
+        raise _fail(f"{here}.joint", f"unknown joint {joint!r} (joints: {', '.join(JOINTS)})")
+    if "joint_angle_at_zero" not in table:
+        raise _fail(
+            f"{here}.joint_angle_at_zero",
+            "missing; the joint angle (deg, flexion positive) at the device's angle 0",
+        )
+    at_zero = check_interval(
+        table["joint_angle_at_zero"], f"{here}.joint_angle_at_zero", -360.0, 360.0, "deg"
+    )
+    if "curve_scale" in table and joint not in CURVE_JOINTS:
+        raise _fail(
+            f"{here}.curve_scale",
+            f"only the joints with a literature curve have one ({', '.join(CURVE_JOINTS)}), "
+            f"not '{joint}'",
+        )
+    shipped = load_passive_prior(joint)
+    values: dict[str, Any] = {}
+    sources: dict[str, str] = {}
+    for key in PASSIVE_ENTRIES:
+        if key in table:
+            values[key] = check_passive_entry(key, table[key], f"{here}.{key}")
+            sources[key] = "manifest"
+        elif key in shipped:
+            values[key] = shipped[key]["value"]
+            sources[key] = shipped[key]["source"]
+        else:  # curve_scale of a joint without a curve
+            values[key] = None
+    return PassivePrior(joint=joint, joint_angle_at_zero=at_zero, sources=sources, **values)
+
+
+def _postures(value: object, *, where: str) -> dict[str, Posture]:
+    """The ``[postures.<name>]`` tables, in manifest order."""
+    here = f"{where}: postures"
+    raw = _table(value, where=here, what="[postures.<name>] tables")
+    out = {}
+    for name, raw_entry in raw.items():
+        _check_name(name, f"{where}: postures", "posture")
+        at = f"{here}.{name}"
+        entry = _table(raw_entry, where=at, what="gravity_rotation = deg, ...")
+        for key in entry:
+            if key not in POSTURE_KEYS:
+                raise _fail(f"{at}.{key}", f"unknown key (allowed: {', '.join(POSTURE_KEYS)})")
+        if "gravity_rotation" not in entry:
+            raise _fail(
+                f"{at}.gravity_rotation",
+                "missing; the rotation of gravity about the axis (deg) against the posture with 0",
+            )
+        rotation = check_interval(
+            entry["gravity_rotation"], f"{at}.gravity_rotation", -360.0, 360.0, "deg"
+        )
+        sd = entry.get("gravity_rotation_sd", DEFAULT_GRAVITY_ROTATION_SD)
+        if sd == "free":
+            sd = math.inf
+        elif isinstance(sd, str):
+            raise _fail(
+                f"{at}.gravity_rotation_sd",
+                f'expected an SD in deg (> 0) or "free", got {sd!r}',
+            )
+        else:
+            sd = check_positive(sd, f"{at}.gravity_rotation_sd", "deg")
+        tilt = check_finite(entry.get("axis_tilt", 0.0), f"{at}.axis_tilt", "deg")
+        if not 0.0 <= tilt <= 90.0:
+            raise _fail(
+                f"{at}.axis_tilt",
+                f"expected an angle in [0, 90] deg (0: a horizontal axis, 90: a vertical one), "
+                f"got {entry['axis_tilt']!r}",
+            )
+        out[name] = Posture(
+            name=name, gravity_rotation=rotation, gravity_rotation_sd=sd, axis_tilt=tilt
+        )
+    return out
+
+
+def _posture_name(value: object, postures: Mapping[str, Posture], *, where: str) -> str:
+    """A trial's (or ``[defaults]``) ``posture``: a name defined under ``[postures]``."""
+    if not postures:
+        raise _fail(
+            where,
+            f"no [postures] in the manifest to name; define [postures.{value}] with its "
+            "gravity_rotation, or remove posture",
+        )
+    if not isinstance(value, str) or value not in postures:
+        raise _fail(where, f"unknown posture {value!r} (postures: {', '.join(postures)})")
+    return value
 
 
 def _measured(value: object, key: str, *, where: str) -> tuple[float, float]:
@@ -882,6 +1200,8 @@ def _trial(
     order: list[str],
     base: Path,
     where: str,
+    postures: Mapping[str, Posture],
+    living: str,
 ) -> TrialSpec:
     here = f"{where}: trials[{i}]"
     entry = _table(entry, where=here, what="file, bodies, kind, ...")
@@ -915,8 +1235,17 @@ def _trial(
 
     kind = entry.get("kind")
     if kind not in KINDS:
-        raise _fail(f"{here}.kind", f'expected "quasi-static" or "fast", got {kind!r}')
+        raise _fail(f"{here}.kind", f'expected "quasi-static", "fast" or "rest", got {kind!r}')
+    if kind == "rest" and (not living or living not in bodies):
+        held = f"the living body '{living}'" if living else "a living body (none is)"
+        raise _fail(
+            f"{here}.kind",
+            f'"rest" (a quiet hold of a living joint) needs {held} mounted, got bodies '
+            f"{', '.join(bodies)}",
+        )
     speed = entry.get("speed")
+    if speed is not None and kind == "rest":
+        raise _fail(f"{here}.speed", "a rest trial holds one angle: remove its speed")
     if speed is None and kind == "fast":
         raise _fail(f"{here}.speed", "missing; a fast trial needs its nominal speed in deg/s")
     if speed is not None:
@@ -934,6 +1263,16 @@ def _trial(
     )
 
     own = _settings(entry, where=here)
+    if "posture" in entry:
+        posture = _posture_name(entry["posture"], postures, where=f"{here}.posture")
+    else:
+        posture = defaults.get("posture", "")
+    if postures and not posture:
+        raise _fail(
+            f"{here}.posture",
+            f"missing; with [postures] every trial names its posture, here or in [defaults] "
+            f"(postures: {', '.join(postures)})",
+        )
     fmt = own.get("format", defaults.get("format", "csv"))
     merged: dict[str, dict[str, Any]] = {}
     for key in ("columns", "units", "calibration", "options"):
@@ -969,4 +1308,5 @@ def _trial(
         options=merged["options"],
         index=i,
         lag=own.get("lag", defaults.get("lag")),
+        posture=posture,
     )

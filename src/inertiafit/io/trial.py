@@ -640,7 +640,8 @@ def apply_torque_sign(trial: xr.Dataset, torque_sign: object, *, kind: str) -> x
       torque drives the motion: in the acceleration window of a fast trial, where the body
       speeds up from rest and the torque has the sign of the acceleration, i.e. of the
       velocity. It is wrong where the torque brakes (the end of a stroke, outside the window)
-      and for a quasi-static trial, whose gravity moment may oppose the motion: refused there.
+      and for a quasi-static (or rest) trial, whose gravity moment may oppose the motion:
+      refused there.
 
     A magnitude read with ``1`` or ``-1`` is refused for a fast trial (its inertia would take
     the sign of its direction of motion, and no factor fixes both directions) and flagged for a
@@ -652,8 +653,8 @@ def apply_torque_sign(trial: xr.Dataset, torque_sign: object, *, kind: str) -> x
         A Trial from :func:`make_trial`.
     torque_sign : {1, -1, "motion"}
         The manifest's value.
-    kind : {"quasi-static", "fast"}
-        The trial's kind.
+    kind : {"quasi-static", "fast", "rest"}
+        The trial's kind (a rest trial is treated as a quasi-static one).
 
     Returns
     -------
@@ -677,10 +678,10 @@ def apply_torque_sign(trial: xr.Dataset, torque_sign: object, *, kind: str) -> x
     magnitude = out.attrs.get("torque_kind") == "magnitude"
     evidence = next((f for f in flags if f.startswith(MAGNITUDE_FLAG)), None)
     if torque_sign == "motion":
-        if kind == "quasi-static":
+        if kind in ("quasi-static", "rest"):
             raise InputError(
                 f'{source}: torque_sign = "motion" signs the torque by the direction of motion, '
-                "which is wrong for a quasi-static trial (gravity and motion can oppose); give "
+                f"which is wrong for a {kind} trial (gravity and motion can oppose); give "
                 "it torque_sign = 1 or -1, the sign of the moment that holds the body"
             )
         if float(torque.min()) < 0:

@@ -80,7 +80,14 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
     conditions = {k: tuple(v) for k, v in inputs.get("conditions", {}).items()}
     if not conditions:  # one body fitted from numbers
         return _fit_result(post, priors[post.bodies[0]], inputs, gravity, hdi_prob)
-    text = {"flags": str, "file": str, "condition": str, "kind": str, "status": str}
+    text = {
+        "flags": str,
+        "file": str,
+        "condition": str,
+        "kind": str,
+        "status": str,
+        "posture": str,
+    }
     trials = _read_table(folder / "trials.csv", TRIAL_COLUMNS, text, LATER_TRIAL_COLUMNS)
     trials["flags"] = trials["flags"].fillna("").astype(str)
     used = usable_trials(trials)
@@ -102,6 +109,7 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
         baselines=baselines,
         warnings=warnings,
         manifest=inputs.get("manifest", ""),
+        living={k: pd.DataFrame(v) for k, v in inputs.get("living", {}).items()},
     )
 
 

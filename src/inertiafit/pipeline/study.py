@@ -26,6 +26,7 @@ from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
 from inertiafit.plotting.style import DEFAULT_FORMATS
+from inertiafit.processing.living import living_tables
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
     ProcessedStudy,
@@ -185,6 +186,11 @@ def analyse_study(
         "warnings": processed.warnings,
         "trials": trials.to_dict(orient="list"),
     }
+    living = (
+        living_tables(processed.living, processed.damping) if processed.living is not None else {}
+    )
+    if living:  # kept in posterior.nc, for `inertiafit report`
+        inputs["living"] = {k: v.to_dict(orient="list") for k, v in living.items()}
     post = fit(model, seed=seed, inputs=inputs, provenance=provenance)
     notes = list(processed.warnings)
     # The paper's estimator knows bodies mounted as they are: a second mounting or added masses
@@ -205,6 +211,7 @@ def analyse_study(
         baselines=baselines,
         warnings=notes,
         manifest=str(study.path),
+        living=living,
     )
 
 

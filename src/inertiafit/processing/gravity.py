@@ -79,6 +79,7 @@ __all__ = [
     "fit_gravity_arrays",
     "gravity_regression",
     "integrated_autocorrelation_time",
+    "moving_part",
 ]
 
 #: Median speed (deg/s) above which a quasi-static trial is flagged as not quasi-static.
@@ -457,7 +458,7 @@ class GravityRegression:
     friction_probability: float = 0.0
 
 
-def _moving(theta: NDArray) -> slice:
+def moving_part(theta: NDArray) -> slice:
     """The samples of the move, without the rest before and after it.
 
     From the first sample beyond ``REST_ANGLE`` of the first angle to the last beyond it of
@@ -605,7 +606,7 @@ def gravity_regression(
             f"{where}angle: covers only {math.degrees(span):.3g} deg; a quasi-static trial must "
             f"sweep a range (>= {MIN_RANGE:g} deg) to separate M_g, phi and the offset"
         )
-    fitted = _moving(theta_all)
+    fitted = moving_part(theta_all)
     theta, y = theta_all[fitted], y_all[fitted]
     n = theta.size
     x3 = np.empty((n, 3), order="F")  # columns contiguous: batch means, slices

@@ -47,6 +47,7 @@ from inertiafit.processing.filtering import (
 )
 from inertiafit.processing.gravity import GravityFit, integrated_autocorrelation_time
 from inertiafit.processing.lag import LAG_BOUNDS, advance, estimate_lag
+from inertiafit.processing.living import StaticCurve
 from inertiafit.processing.window import LEVEL, MIN_SPEED_CHANGE, TOLERANCE, find_window_arrays
 
 __all__ = [
@@ -113,10 +114,21 @@ class InertiaEstimate:
         estimated (a flag says so, and no lag was removed).
     lag_source : {"estimated", "manifest"}
         Where ``lag`` comes from.
-    gravity_sensitivity : (float, float, float)
+    gravity_sensitivity : tuple of float
         ``dI/d(A, B, C)`` (kg m^2 per N m) for the subtracted gravity model ``A sin(theta) +
         B cos(theta) + C``: how the reported inertia moves with an error of the gravity
-        model, including the estimated lag's response to it.
+        model, including the estimated lag's response to it. For a living body's condition
+        (a :class:`StaticCurve`), ``dI/d gamma`` for every coefficient of its static curve.
+    damping, damping_se : float
+        A living body's viscous damping ``b`` (N m s/rad) and its standard error, fitted with
+        the inertia over the acceleration and the deceleration windows; ``None`` for a
+        rigid condition.
+    inertia_damping_cov : float
+        Covariance of the errors of ``inertia`` and ``damping`` (``None`` for a rigid
+        condition).
+    deceleration_start, deceleration_end : float
+        Times (s) of the deceleration window used with the acceleration window (``None``
+        for a rigid condition).
     """
 
     inertia: float
@@ -133,7 +145,12 @@ class InertiaEstimate:
     lag: float = 0.0
     lag_se: float = 0.0
     lag_source: str = "manifest"
-    gravity_sensitivity: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    gravity_sensitivity: tuple[float, ...] = (math.nan, math.nan, math.nan)
+    damping: float | None = None
+    damping_se: float | None = None
+    inertia_damping_cov: float | None = None
+    deceleration_start: float | None = None
+    deceleration_end: float | None = None
 
 
 def saturated_run(x: NDArray, *, run: int = SATURATION_RUN) -> int:
@@ -158,7 +175,7 @@ def saturated_run(x: NDArray, *, run: int = SATURATION_RUN) -> int:
 
 def estimate_inertia(
     trial: xr.Dataset,
-    gravity: GravityFit,
+    gravity: GravityFit | StaticCurve,
     *,
     window: Sequence[float] | None = None,
     speed_deg_s: float | None = None,
@@ -174,8 +191,12 @@ def estimate_inertia(
     ----------
     trial : xarray.Dataset
         A fast Trial (``time`` s, ``angle`` rad, ``velocity`` rad/s, ``torque`` N m), raw.
-    gravity : GravityFit
-        Gravity model of the same condition, from its quasi-static trial.
+    gravity : GravityFit or StaticCurve
+        Gravity model of the same condition, from its quasi-static trial; for a condition
+        that holds a living body, the static curve of its posture and direction
+        (:meth:`~inertiafit.processing.living.LivingStatics.curve`): the inertia and the
+        viscous damping are then fitted together over the acceleration and the deceleration
+        windows (``damping``).
     window : (float, float), optional
         Manual uniform-acceleration window (s); default ``trial.attrs["window"]`` if present,
         else detected (:func:`~inertiafit.processing.window.find_window`).
@@ -224,23 +245,34 @@ def estimate_inertia(
     raw_torque = torque_sign * trial["torque"].values
     raw_velocity = trial["velocity"].values
     angle = trial["angle"].values
-    # The gravity model A sin(theta) + B cos(theta) + C (= gravity.torque) passes through
-    # exactly the filter the torque does: by linearity the same as filtering the torque minus
-    # the model. A filtered constant is the constant. The four channels go through the filter
-    # in one call (each row's numbers are those of a call of its own).
-    torque_f, velocity_f, sin_f, cos_f = lowpass_rows(
-        np.stack([raw_torque, raw_velocity, np.sin(angle), np.cos(angle)]),
+    living = isinstance(gravity, StaticCurve)
+    if isinstance(gravity, StaticCurve):
+        columns, coefficients = gravity.columns(angle), tuple(gravity.coefficients)
+    else:
+        columns = [np.sin(angle), np.cos(angle), 1.0]
+        coefficients = gravity_coefficients(gravity)
+    # The gravity model A sin(theta) + B cos(theta) + C (= gravity.torque; for a living body
+    # the static curve's columns) passes through exactly the filter the torque does: by
+    # linearity the same as filtering the torque minus the model. A filtered constant is the
+    # constant. The channels go through the filter in one call (each row's numbers are those
+    # of a call of its own).
+    varying = [c for c in columns if not isinstance(c, float)]
+    torque_f, velocity_f, *varying_f = lowpass_rows(
+        np.stack([raw_torque, raw_velocity, *varying]),
         rate,
         cutoff=cutoff,
         order=order,
         source=source,
     )
     alpha_f = derivative(velocity_f, time)
-    terms = [sin_f, cos_f, np.ones_like(time, dtype=np.float64)]
-    coefficients = gravity_coefficients(gravity)
+    filtered = iter(varying_f)
+    terms = [
+        np.full_like(time, c, dtype=np.float64) if isinstance(c, float) else next(filtered)
+        for c in columns
+    ]
     gravity_f = sum((c * term for c, term in zip(coefficients, terms, strict=True)), start=0.0)
     flags: list[str] = []
-    lag_sensitivity: tuple[float, ...] = (0.0, 0.0, 0.0)  # d lag / d(A, B, C)
+    lag_sensitivity: tuple[float, ...] = (0.0,) * len(terms)  # d lag / d coefficients
     if fixed is None:
         found = estimate_lag(
             time,
@@ -250,6 +282,7 @@ def estimate_inertia(
             velocity_f,
             bounds=lag_bounds,
             terms=terms,
+            damping=living,
         )
         lag_value, lag_se, lag_source = found.lag, found.lag_se, "estimated"
         flags.extend(found.flags)
@@ -269,27 +302,18 @@ def estimate_inertia(
         tolerance=TOLERANCE,
         min_speed_change=MIN_SPEED_CHANGE,
     )
-    sl = slice(win.start_index, win.stop_index)
-    y = net_f[sl]
-    alpha = alpha_f[sl]
-
-    sxx = float(alpha @ alpha)
-    value = float(alpha @ y) / sxx
-    residuals = y - value * alpha
-    n = residuals.size
-    sigma2 = float(residuals @ residuals) / max(n - 1, 1)
-    tau = integrated_autocorrelation_time(residuals)
-    se = math.sqrt(sigma2 * tau / sxx)
-    frame_mean = float(np.mean(y / alpha))
-    # dI/d(A, B, C): directly through the model subtracted, and through the estimated lag
-    # (dI/dL is the window's regression of the advanced torque's time derivative).
-    d_inertia_d_lag = float(alpha @ np.gradient(shifted, time)[sl]) / sxx
-    sensitivity = tuple(
-        float(-(alpha @ term[sl]) / sxx + d_inertia_d_lag * d_lag)
-        for term, d_lag in zip(terms, lag_sensitivity, strict=True)
-    )
-
-    flags = [*win.flags, *flags]
+    extra: dict[str, float] = {}
+    if living:
+        damped = _with_damping(
+            time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sensitivity, source
+        )
+        value, se, frame_mean, sensitivity, residuals, extra = damped
+        n = residuals.size
+        sl = slice(win.start_index, win.stop_index)
+    else:
+        value, se, frame_mean, sensitivity, residuals, n, sl = _through_origin(
+            time, net_f, shifted, alpha_f, win, terms, lag_sensitivity
+        )
     if value < 0:
         if value + NEGATIVE_SE * se < 0:
             raise InputError(
@@ -327,8 +351,102 @@ def estimate_inertia(
         lag=float(lag_value),
         lag_se=float(lag_se),
         lag_source=lag_source,
-        gravity_sensitivity=(sensitivity[0], sensitivity[1], sensitivity[2]),
+        gravity_sensitivity=tuple(sensitivity),
+        **extra,
     )
+
+
+def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
+    """A rigid condition: least squares of ``y = I alpha`` in the acceleration window.
+
+    Returns ``(inertia, se, frame_mean, sensitivity, residuals, n, window slice)``.
+    """
+    sl = slice(win.start_index, win.stop_index)
+    y = net_f[sl]
+    alpha = alpha_f[sl]
+    sxx = float(alpha @ alpha)
+    value = float(alpha @ y) / sxx
+    residuals = y - value * alpha
+    n = residuals.size
+    sigma2 = float(residuals @ residuals) / max(n - 1, 1)
+    tau = integrated_autocorrelation_time(residuals)
+    se = math.sqrt(sigma2 * tau / sxx)
+    frame_mean = float(np.mean(y / alpha))
+    # dI/d(A, B, C): directly through the model subtracted, and through the estimated lag
+    # (dI/dL is the window's regression of the advanced torque's time derivative).
+    d_inertia_d_lag = float(alpha @ np.gradient(shifted, time)[sl]) / sxx
+    sensitivity = tuple(
+        float(-(alpha @ term[sl]) / sxx + d_inertia_d_lag * d_lag)
+        for term, d_lag in zip(terms, lag_sensitivity, strict=True)
+    )
+    return value, se, frame_mean, sensitivity, residuals, n, sl
+
+
+def deceleration_window(time, velocity_f, alpha_f, *, source, speed_deg_s=None):
+    """The uniform-deceleration window at the end of a fast move: ``(start, stop)`` indices.
+
+    The window detector of the acceleration (:func:`find_window_arrays`) run on the trial
+    reversed in time, where the deceleration is a rise from rest.
+    """
+    reversed_time = time[-1] - time[::-1]
+    found = find_window_arrays(
+        reversed_time,
+        velocity_f[::-1],
+        -alpha_f[::-1],
+        source=f"{source} (deceleration)",
+        speed_deg_s=speed_deg_s,
+        level=LEVEL,
+        tolerance=TOLERANCE,
+        min_speed_change=MIN_SPEED_CHANGE,
+    )
+    n = time.size
+    return n - found.stop_index, n - found.start_index
+
+
+def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sensitivity, source):
+    """A living body: least squares of ``y = I alpha + b omega`` over both windows.
+
+    During the acceleration ramp the speed rises with the acceleration, so ``b omega`` alone
+    reads as inertia; in the deceleration window the acceleration changes sign while the
+    speed stays of the same sign, which separates them. Returns ``(inertia, se,
+    frame_mean, sensitivity, residuals, extra fields)``.
+    """
+    start, stop = deceleration_window(time, velocity_f, alpha_f, source=source, speed_deg_s=None)
+    if start < win.stop_index:
+        raise InputError(
+            f"{source}: no deceleration window after the acceleration window (ends at "
+            f"{win.end:.4g} s): a living body's damping needs the move's deceleration"
+        )
+    rows = np.r_[win.start_index : win.stop_index, start:stop]
+    design = np.column_stack([alpha_f[rows], velocity_f[rows]])
+    y = net_f[rows]
+    gram_inv = np.linalg.inv(design.T @ design)
+    coef = gram_inv @ (design.T @ y)
+    residuals = y - design @ coef
+    n = residuals.size
+    sigma2 = float(residuals @ residuals) / max(n - 2, 1)
+    tau = max(
+        integrated_autocorrelation_time(residuals[: win.stop_index - win.start_index]),
+        integrated_autocorrelation_time(residuals[win.stop_index - win.start_index :]),
+    )
+    cov = sigma2 * tau * gram_inv
+    value, damping = float(coef[0]), float(coef[1])
+    sl = slice(win.start_index, win.stop_index)
+    frame_mean = float(np.mean((net_f[sl] - damping * velocity_f[sl]) / alpha_f[sl]))
+    solve = gram_inv @ design.T  # d(I, b) / dy over the rows
+    d_inertia_d_lag = float(solve[0] @ np.gradient(shifted, time)[rows])
+    sensitivity = tuple(
+        float(-(solve[0] @ term[rows]) + d_inertia_d_lag * d_lag)
+        for term, d_lag in zip(terms, lag_sensitivity, strict=True)
+    )
+    extra = {
+        "damping": damping,
+        "damping_se": math.sqrt(float(cov[1, 1])),
+        "inertia_damping_cov": float(cov[0, 1]),
+        "deceleration_start": float(time[start]),
+        "deceleration_end": float(time[stop - 1]),
+    }
+    return value, math.sqrt(float(cov[0, 0])), frame_mean, sensitivity, residuals, extra
 
 
 def gravity_coefficients(gravity: GravityFit) -> tuple[float, float, float]:

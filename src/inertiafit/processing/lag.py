@@ -212,6 +212,7 @@ def estimate_lag(
     *,
     bounds: Sequence[float] = LAG_BOUNDS,
     terms: Sequence[ArrayLike] = (),
+    damping: bool = False,
 ) -> LagEstimate:
     """Estimate the lag of the torque channel behind the velocity in a fast trial.
 
@@ -230,6 +231,9 @@ def estimate_lag(
     terms : sequence of array_like[nsamples]
         Filtered terms of the gravity model (``sin(theta)``, ``cos(theta)``, 1), for
         :attr:`LagEstimate.sensitivity`.
+    damping : bool
+        Fit ``I alpha + b omega + c`` (a living body's viscous damping) instead of
+        ``I alpha + c``.
 
     Returns
     -------
@@ -269,7 +273,8 @@ def estimate_lag(
     sl = slice(lo, hi)
     shifter = _Shifter(tau, rate)
     # I alpha + c over the move: an orthonormal basis, so residuals are one projection away.
-    basis, _ = np.linalg.qr(np.column_stack([alpha[sl], np.ones(n)]))
+    columns = [alpha[sl], vel[sl], np.ones(n)] if damping else [alpha[sl], np.ones(n)]
+    basis, _ = np.linalg.qr(np.column_stack(columns))
     target = grav[sl]
 
     def residual(lag: float) -> NDArray:

@@ -30,10 +30,19 @@ from inertiafit.io.manifest import file_sha256
 from inertiafit.processing.gravity import GravityFit, fit_gravity
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import lag_consistency_flags
+from inertiafit.processing.living import (
+    LivingStatics,
+    PassiveBasis,
+    PostureGeometry,
+    StaticCurve,
+    StaticRecord,
+    fit_statics,
+)
 from inertiafit.processing.plausibility import fast_trial_flags
 from inertiafit.stats import inverse_variance_mean
 
 __all__ = [
+    "LIVING_TRIAL_COLUMNS",
     "PHASE_TOLERANCE",
     "RATE_TOLERANCE",
     "SENSITIVITY_COLUMNS",
@@ -68,6 +77,9 @@ TRIAL_COLUMNS = [
     "lag_se",
     "status",
 ]
+#: Columns ``trials.csv`` gains when a body is living: the trial's posture and a fast trial's
+#: viscous damping ``b`` (N m s/rad) with its standard error.
+LIVING_TRIAL_COLUMNS = ["posture", "damping", "damping_se"]
 #: ``status`` of a trial whose values were used, and of one skipped (``on_trial_error``).
 STATUS_OK, STATUS_SKIPPED = "ok", "skipped"
 #: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures.
@@ -123,7 +135,16 @@ class ProcessedStudy:
         :data:`SENSITIVITY_COLUMNS`: the trial's
         :attr:`~inertiafit.processing.inertia.InertiaEstimate.gravity_sensitivity`, the
         derivative of its inertia with respect to the condition's gravity model
-        (not written to ``trials.csv``).
+        (not written to ``trials.csv``). Rigid conditions only.
+    living : LivingStatics or None
+        A living body's joint fit of gravity and the passive curve
+        (:func:`~inertiafit.processing.living.fit_statics`); ``None`` for a rigid study.
+    living_coupling : dict of str to (float, float)
+        Per living condition, the static curve's error in its mean inertia, ``(coupling,
+        shared_sd)`` (:meth:`~inertiafit.processing.living.LivingStatics.inertia_coupling`).
+    damping : (float, float) or None
+        The living joint's viscous damping ``b`` (N m s/rad) and its SE: the
+        inverse-variance mean over the living conditions' fast trials.
     """
 
     study: Study
@@ -134,6 +155,9 @@ class ProcessedStudy:
     skipped: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=TRIAL_COLUMNS))
     provenance: list[dict[str, Any]] = field(default_factory=list)
     sensitivity: pd.DataFrame = field(default_factory=lambda: _sensitivity_frame({}))
+    living: LivingStatics | None = None
+    living_coupling: dict[str, tuple[float, float]] = field(default_factory=dict)
+    damping: tuple[float, float] | None = None
 
     @property
     def all_trials(self) -> pd.DataFrame:
@@ -147,7 +171,7 @@ class ProcessedStudy:
         )
 
 
-def _sensitivity_frame(rows: dict[str, tuple[float, float, float]]) -> pd.DataFrame:
+def _sensitivity_frame(rows: dict[str, tuple[float, ...]]) -> pd.DataFrame:
     frame = pd.DataFrame.from_dict(rows, orient="index", columns=SENSITIVITY_COLUMNS)
     frame.index.name = "file"
     return frame.astype(float)
@@ -326,8 +350,15 @@ def process_study(
     rows: dict[int, dict] = {}  # by manifest order
     notes = run.notes
     say("fitting the gravity model of each condition (quasi-static trials)")
+    living_conditions = _living_conditions(study)
+    postures = _posture_geometry(study)
     qs_fits: dict[str, list[GravityFit]] = {}
+    records: list[StaticRecord] = []
     for spec, ds in data:
+        if spec.kind == "rest":
+            records.append(_record(spec, ds))
+            rows[spec.index] = _rest_row(study, spec, ds, reader=run.reader_flags(spec))
+            continue
         if spec.kind != "quasi-static":
             continue
         fit = run.attempt(spec, functools.partial(fit_gravity, ds))
@@ -336,11 +367,33 @@ def process_study(
         notes.extend(f"{fit.source}: {flag}" for flag in fit.flags)
         qs_fits.setdefault(spec.condition, []).append(fit)
         rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
+        if spec.condition in living_conditions:
+            records.append(_record(spec, ds))
     run.check_left(qs_fits, "quasi-static")
+    _check_rigid_postures(study, living_conditions)
     gravity = {
         cond: combine_gravity(fits, f"{study.path}: condition {cond}")
         for cond, fits in qs_fits.items()
+        if cond not in living_conditions
     }
+    statics = None
+    if living_conditions:
+        say("fitting gravity and the passive curve of the living body together")
+        assert study.passive is not None
+        statics = fit_statics(
+            records, postures, passive_basis(study), where=f"{study.path}: [passive]"
+        )
+        if len(statics.conditions) > 1:
+            notes.append(
+                f"{study.path}: conditions {', '.join(statics.conditions)} hold the living body "
+                "and share its passive curve; their gravity moments enter the posterior as "
+                "independent evidence, so the correlation through the passive curve is dropped "
+                "(intervals may be a little too narrow)"
+            )
+        for cond in statics.conditions:
+            gravity[cond] = statics.gravity_fit(cond, source=f"{study.path}: condition {cond}")
+            notes.extend(f"{study.path}: condition {cond}: {f}" for f in gravity[cond].flags)
+        gravity = {c: gravity[c] for c in qs_fits}  # the manifest's order
     _check_phases(study, gravity, notes)
     say("estimating the inertia of each fast trial")
     traces: list[dict] = []
@@ -350,12 +403,15 @@ def process_study(
     for spec, ds in data:
         if spec.kind != "fast":
             continue
+        subtracted: GravityFit | StaticCurve = gravity[spec.condition]
+        if statics is not None and spec.condition in living_conditions:
+            subtracted = statics.curve(spec.condition, spec.posture, _direction(ds))
         est = run.attempt(
             spec,
             functools.partial(
                 estimate_inertia,
                 ds,
-                gravity[spec.condition],
+                subtracted,
                 window=spec.window,
                 speed_deg_s=spec.speed,
                 cutoff=cutoff,
@@ -396,10 +452,31 @@ def process_study(
         {
             rows[spec.index]["file"]: est.gravity_sensitivity
             for spec, est in fast_estimates
-            if spec.index in rows
+            if spec.index in rows and spec.condition not in living_conditions
         }
     )
-    trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS)
+    columns = TRIAL_COLUMNS
+    living_coupling: dict[str, tuple[float, float]] = {}
+    damping = None
+    if statics is not None:
+        columns = [*TRIAL_COLUMNS, *LIVING_TRIAL_COLUMNS]
+        for spec, _ in data:
+            if spec.index in rows:
+                rows[spec.index]["posture"] = spec.posture
+        living_fast = [(s_, e) for s_, e in fast_estimates if s_.condition in living_conditions]
+        for spec, est in living_fast:
+            rows[spec.index].update(damping=est.damping, damping_se=est.damping_se)
+        for cond in statics.conditions:
+            sens = [e.gravity_sensitivity for s_, e in living_fast if s_.condition == cond]
+            if sens:
+                living_coupling[cond] = statics.inertia_coupling(cond, np.array(sens))
+        if living_fast:
+            damping = inverse_variance_mean(
+                np.array([e.damping for _, e in living_fast], dtype=float),
+                np.array([e.damping_se for _, e in living_fast], dtype=float),
+            )
+            damping = (float(damping[0]), float(damping[1]))
+    trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=columns)
     return ProcessedStudy(
         study=study,
         trials=trials,
@@ -409,7 +486,99 @@ def process_study(
         skipped=pd.DataFrame([run.skipped[i] for i in sorted(run.skipped)], columns=TRIAL_COLUMNS),
         provenance=[run.provenance[t.index] for t in study.trials],
         sensitivity=sensitivity,
+        living=statics,
+        living_coupling=living_coupling,
+        damping=damping,
     )
+
+
+def _living_conditions(study: Study) -> set[str]:
+    """The conditions that hold the study's living body (none for a rigid study)."""
+    body = study.living_body
+    return {c for c, m in study.mountings.items() if body and body in m.bodies}
+
+
+def _posture_geometry(study: Study) -> dict[str, PostureGeometry]:
+    """The manifest's postures in radians (one posture ``""`` when it names none)."""
+    if not study.postures:
+        return {"": PostureGeometry("")}
+    return {
+        name: PostureGeometry(
+            name,
+            math.radians(p.gravity_rotation),
+            math.radians(p.gravity_rotation_sd),
+            math.radians(p.axis_tilt),
+        )
+        for name, p in study.postures.items()
+    }
+
+
+def passive_basis(study: Study) -> PassiveBasis:
+    """The passive curve's columns and priors from the manifest's ``[passive]`` (radians)."""
+    prior = study.passive
+    assert prior is not None
+    return PassiveBasis(
+        joint=prior.joint,
+        zero=math.radians(prior.joint_angle_at_zero),
+        stiffness=prior.stiffness,
+        stop_moment=prior.stop_moment,
+        width=math.radians(prior.stop_width),
+        range_low=math.radians(prior.range[0]),
+        range_high=math.radians(prior.range[1]),
+        hysteresis=prior.hysteresis,
+        curve_scale=prior.curve_scale,
+        damping=prior.damping,
+    )
+
+
+def _record(spec: TrialSpec, ds: xr.Dataset) -> StaticRecord:
+    return StaticRecord(
+        angle=ds["angle"].values,
+        torque=ds["torque"].values,
+        condition=spec.condition,
+        posture=spec.posture,
+        kind=spec.kind,
+        source=str(spec.file),
+    )
+
+
+def _rest_row(study: Study, spec: TrialSpec, ds: xr.Dataset, *, reader: tuple[str, ...]) -> dict:
+    """A rest trial's row: its mean torque (``offset``) and spread (``residual_rms``)."""
+    row = _row(study, spec, reader=reader)
+    torque = ds["torque"].values
+    row.update(offset=float(np.mean(torque)), residual_rms=float(np.std(torque)))
+    return row
+
+
+def _direction(ds: xr.Dataset) -> int:
+    """The direction of a fast move: the sign of its fastest velocity."""
+    v = ds["velocity"].values
+    return 1 if v[int(np.argmax(np.abs(v)))] >= 0 else -1
+
+
+def _check_rigid_postures(study: Study, living: set[str]) -> None:
+    """A rigid condition's quasi-static trials share one posture with the axis horizontal.
+
+    Its gravity model is fitted in that posture's frame; trials in two postures would be
+    averaged across rotated curves, and a tilted axis scales ``M_g`` (not modelled for rigid
+    conditions in this version).
+    """
+    for cond in study.conditions:
+        if cond in living:
+            continue
+        used = {t.posture for t in study.trials if t.condition == cond}
+        if len(used) > 1:
+            raise InputError(
+                f"{study.path}: condition {cond}: trials in postures {sorted(used)}; a rigid "
+                "condition is measured in one posture (the phase is fitted per condition)"
+            )
+        (name,) = used
+        if name and study.postures[name].axis_tilt != 0:
+            raise InputError(
+                f"{study.path}: condition {cond}: posture '{name}' tilts the axis "
+                f"({study.postures[name].axis_tilt:g} deg); a rigid condition is measured with "
+                "the axis horizontal (axis_tilt = 0)"
+            )
 
 
 class _Run:
@@ -598,11 +767,25 @@ def _check_lags(
             notes.append(f"{est.source}: {flag}")
 
 
+def _rotation(study: Study, condition: str) -> float:
+    """The gravity rotation (rad) a condition's fitted phase holds.
+
+    Its posture's for a rigid condition (one posture); 0 for a living one (fitted in the
+    frame of rotation 0).
+    """
+    if study.living_body and study.living_body in study.mountings[condition].bodies:
+        return 0.0
+    names = {t.posture for t in study.trials if t.condition == condition}
+    name = next(iter(names))
+    return math.radians(study.postures[name].gravity_rotation) if name else 0.0
+
+
 def _check_phases(study: Study, gravity: dict[str, GravityFit], notes: list[str]) -> None:
     """Bodies mounted in line share the device's phase; a difference deserves a warning."""
     conds = list(gravity)
+    phase = {c: gravity[c].gravity_phase - _rotation(study, c) for c in conds}
     for c in conds[1:]:
-        diff = abs(gravity[c].gravity_phase - gravity[conds[0]].gravity_phase)
+        diff = abs(phase[c] - phase[conds[0]])
         if diff > PHASE_TOLERANCE:
             notes.append(
                 f"{study.path}: the gravity phase of condition '{c}' differs from '{conds[0]}' "

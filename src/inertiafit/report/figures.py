@@ -22,7 +22,13 @@ from inertiafit.report.result import Result, traces_by_condition
 __all__ = ["FIGURE_SECTIONS", "FigureRecord", "figure_records"]
 
 #: The sections of report.html that hold figures, in page order.
-FIGURE_SECTIONS = ("Corner plots", "Identification curves", "Trials", "Diagnostics")
+FIGURE_SECTIONS = (
+    "Corner plots",
+    "Identification curves",
+    "Living joint",
+    "Trials",
+    "Diagnostics",
+)
 
 
 @dataclass(frozen=True)
@@ -100,6 +106,16 @@ def figure_records(result: Result) -> list[FigureRecord]:
                 "Identification curves",
                 f"{body}: posterior draws, the curve at the posterior medians, the prior box "
                 "and the paper's per-start solutions",
+            )
+        )
+    if result.living:
+        add(
+            FigureRecord(
+                "passive-curve",
+                functools.partial(plots.plot_passive_curve, result.living["passive_curve"]),
+                "Living joint",
+                "the joint's passive elastic moment (median, 95% band, prior band) and the "
+                "gravity moment beside it, both relative to the middle of the swept range",
             )
         )
     if len(result.trials):

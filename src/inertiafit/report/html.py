@@ -26,6 +26,7 @@ from inertiafit.report.tables import (
     comparison_display,
     correlation_display,
     identification_display,
+    passive_display,
     speed_effect_display,
     summary_display,
 )
@@ -328,6 +329,25 @@ def study_report(
             ],
         ),
     ]
+    if result.living:
+        sections.append(
+            (
+                "Living joint",
+                [
+                    (
+                        "A living body's joint adds its passive elastic moment, a hysteresis and "
+                        "a viscous damping to every trial; they are fitted with gravity over the "
+                        "quasi-static and rest trials (the passive coefficients integrated out "
+                        "under their prior) and with the inertia over each fast trial's "
+                        "acceleration and deceleration windows. 'decided by' says what told the "
+                        "gravity moment apart from the passive curve: the passive prior (one "
+                        "posture), or data (a second posture, the horizontal plane)."
+                    ),
+                    passive_display(result.living["passive_parameters"]),
+                    *figs("Living joint"),
+                ],
+            )
+        )
     if len(result.trials):
         sections.append(
             (

@@ -22,6 +22,7 @@ from inertiafit.report.html import figure_png, study_report
 from inertiafit.report.result import Result
 from inertiafit.report.tables import (
     comparison_display,
+    passive_display,
     speed_effect_display,
     summary_display,
     write_table,
@@ -119,7 +120,11 @@ def draw_figures(
 
 
 def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
-    """summary, identification, comparison and speed_effect as CSV (+ .md, .tex)."""
+    """summary, identification, comparison and speed_effect as CSV (+ .md, .tex).
+
+    A living body adds ``passive_parameters`` (CSV, .md, .tex) and ``passive.csv`` (the
+    passive elastic moment on an angle grid, median and 95 % band).
+    """
     post = result.posterior
     summary = post.summary(hdi_prob)
     write_table(
@@ -150,6 +155,18 @@ def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
             display=speed_effect_display(result.speed_effect),
             caption="Inertia per condition and speed; one-way ANOVA across speeds.",
         )
+    if result.living:
+        write_table(
+            result.living["passive_parameters"],
+            folder,
+            "passive_parameters",
+            display=passive_display(result.living["passive_parameters"]),
+            caption=(
+                "The living joint: passive elastic coefficients, hysteresis, viscous damping, "
+                "postures, and what decided each living condition's gravity moment (95% intervals)."
+            ),
+        )
+        write_csv(result.living["passive_curve"], folder / "passive.csv")
 
 
 def write_outputs(

@@ -9,7 +9,7 @@ fitted from numbers are the same type; a fit simply has no trials.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import pandas as pd
@@ -59,6 +59,9 @@ class Result:
         Trial flags and other notes, one line each.
     manifest : str
         Path of the study manifest ("" for a fit from numbers).
+    living : dict of str to pandas.DataFrame
+        A living body's joint (:func:`~inertiafit.processing.living.living_tables`):
+        ``passive_parameters`` and ``passive_curve``; empty for a rigid study.
     """
 
     name: str
@@ -75,6 +78,7 @@ class Result:
     baselines: dict[str, Any]
     warnings: tuple[str, ...]
     manifest: str
+    living: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     @property
     def from_numbers(self) -> bool:
@@ -105,6 +109,7 @@ def make_result(
     baselines: Mapping[str, Any] | None = None,
     warnings: Sequence[str] = (),
     manifest: str = "",
+    living: Mapping[str, pd.DataFrame] | None = None,
 ) -> Result:
     """Assemble a :class:`Result` and its comparison table (nothing else is computed)."""
     ideals_ = {k: dict(v) for k, v in (ideals or {}).items()}
@@ -133,6 +138,7 @@ def make_result(
         baselines=baselines_,
         warnings=tuple(warnings),
         manifest=manifest,
+        living=dict(living or {}),
     )
 
 

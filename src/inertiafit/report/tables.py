@@ -20,6 +20,7 @@ __all__ = [
     "correlation_display",
     "fmt",
     "identification_display",
+    "passive_display",
     "speed_effect_display",
     "summary_display",
     "to_latex",
@@ -99,6 +100,29 @@ def write_table(
     paths[1].write_text(to_markdown(shown), encoding="utf-8")
     paths[2].write_text(to_latex(shown, caption=caption, label=f"tab:{stem}"), encoding="utf-8")
     return paths
+
+
+def passive_display(table: pd.DataFrame) -> pd.DataFrame:
+    """Readable living-joint table: parameter [unit], mean ± SD, interval, prior, decided by."""
+
+    def prior(row) -> str:
+        if pd.isna(row["prior_sd"]):
+            return ""
+        return mean_sd(row["prior_mean"], row["prior_sd"])
+
+    return pd.DataFrame(
+        {
+            "parameter": [
+                f"{p} [{u}]" for p, u in zip(table["parameter"], table["unit"], strict=True)
+            ],
+            "mean ± SD": [mean_sd(m, s) for m, s in zip(table["mean"], table["sd"], strict=True)],
+            "95% interval": [
+                interval(lo, hi) for lo, hi in zip(table["lower"], table["upper"], strict=True)
+            ],
+            "prior": [prior(r) for _, r in table.iterrows()],
+            "decided by": table["pinned_by"].fillna("").astype(str),
+        }
+    )
 
 
 def _interval(median: float, lo: float, hi: float) -> str:

@@ -30,6 +30,7 @@ from inertiafit.plotting.style import (
 from inertiafit.report.plots.corner import plot_joint_corner
 from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
 from inertiafit.report.plots.identification import CURVE_PAIRS, plot_identification_curve
+from inertiafit.report.plots.living import plot_passive_curve
 from inertiafit.report.plots.trials import plot_fast_trials, plot_inertia_by_speed
 
 __all__ = [
@@ -49,6 +50,7 @@ __all__ = [
     "plot_identification_curve",
     "plot_inertia_by_speed",
     "plot_joint_corner",
+    "plot_passive_curve",
     "plot_rank",
     "plot_trace",
     "rank_groups",
