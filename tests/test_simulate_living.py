@@ -342,3 +342,24 @@ def test_rigid_studies_are_as_before_the_living_simulator(tmp_path):
         x = np.loadtxt(tmp_path / "data" / name, delimiter=",", skiprows=1)
         assert x.shape == (sizes[name], 4)
         np.testing.assert_allclose(x[[0, 150, 300, 450]], rows, rtol=1e-8, atol=1e-9)
+
+
+@pytest.mark.parametrize("design", ["one", "two", "horizontal"])
+def test_the_manifest_loads(tmp_path, design):
+    from inertiafit.io import load_study
+
+    manifest, truth = study(tmp_path, seed=3, postures=design)
+    loaded = load_study(tmp_path / "study.toml")
+    assert loaded.living_body == "forearm"
+    assert loaded.passive is not None
+    assert loaded.passive.joint == "elbow"
+    assert loaded.passive.joint_angle_at_zero == 30.0
+    assert loaded.passive.range == (30.0, 120.0)
+    assert loaded.passive.sources["range"] == "manifest"
+    assert {name: (p.gravity_rotation, p.axis_tilt) for name, p in loaded.postures.items()} == (
+        POSTURE_DESIGNS[design]
+    )
+    assert [(t.kind, t.posture) for t in loaded.trials] == [
+        (t["kind"], t["posture"]) for t in manifest["trials"]
+    ]
+    assert truth["passive"]["range"] == [30.0, 120.0]
