@@ -363,3 +363,39 @@ def test_the_manifest_loads(tmp_path, design):
         (t["kind"], t["posture"]) for t in manifest["trials"]
     ]
     assert truth["passive"]["range"] == [30.0, 120.0]
+
+
+def test_a_knee_alone_has_its_literature_curve(tmp_path):
+    manifest, truth = study(
+        tmp_path,
+        seed=5,
+        bodies={"shank": (3.5, 0.1, 0.2)},
+        living="shank",
+        joint="knee",
+        joint_angle_at_zero=10.0,
+        noise=Noise.none(),
+    )
+    assert set(truth["conditions"]) == {"B"}
+    assert {tuple(e["bodies"]) for e in manifest["trials"]} == {("shank",)}
+    assert manifest["bodies"]["shank"]["living"] is True
+    p = truth["passive"]
+    assert p["range"] == [10.0, 100.0]
+    assert 0.5 <= p["curve_scale"] <= 1.5
+    # A rest trial: gravity, the spring, the stops and the scaled Riener & Edrich curve.
+    rest = read(tmp_path, {"file": "data/B_upright_rest_2.csv"})
+    knee = 10.0 + 45.0
+    curve = -(
+        math.exp(1.800 - 0.0352 * knee + 0.0217 * 90)
+        - math.exp(-3.971 + 0.0495 * knee - 0.0128 * 90)
+        - 4.820
+        + math.exp(2.220 - 0.150 * knee)
+    )
+    expected = (
+        truth["conditions"]["B"]["gravity_moment"] * math.sin(45 * DEG)
+        + p["stiffness"] * (knee - p["relaxed_angle"]) * DEG
+        + p["stop_moment_high"] * math.exp((knee - 100.0) / 10.0)
+        - p["stop_moment_low"] * math.exp((10.0 - knee) / 10.0)
+        + p["curve_scale"] * curve
+    )
+    assert rest["torque"] == pytest.approx(expected, abs=1e-8)
+    assert abs(p["curve_scale"] * curve) > 0.5

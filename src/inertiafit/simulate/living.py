@@ -376,7 +376,7 @@ def simulate_living_study(
     sweeps : sequence of {"up", "down"}
         Directions of the living condition's quasi-static sweeps (at least one).
     fast_directions : sequence of {"up", "down"}
-        Directions of the living condition's fast trials (the rigid condition's go up).
+        Directions of the living condition's fast trials (the rigid condition's take ``motion``).
     rest_angles : sequence of float, optional
         Device angles (deg) of the rest trials; default 1/6, 1/2 and 5/6 of the range.
     gravity_rotation_sd : float
@@ -447,9 +447,10 @@ def simulate_living_study(
         for k, (p, (rot, tilt)) in enumerate(design.items())
     }
 
-    rigid = Mounting(tuple(b for b in truth if b != living))
+    rigid_bodies = tuple(b for b in truth if b != living)
     whole = Mounting(tuple(truth))
-    mountings, labels = ([rigid, whole], ["A", "B"]) if rigid.bodies else ([whole], ["B"])
+    rigid = Mounting(rigid_bodies) if rigid_bodies else None
+    mountings, labels = ([rigid, whole], ["A", "B"]) if rigid else ([whole], ["B"])
     out = Path(out_dir)
     data = out / "data"
     data.mkdir(parents=True, exist_ok=True)
@@ -477,7 +478,7 @@ def simulate_living_study(
     # Per condition and posture: its seed and its trials (kind, speed, motion, file name).
     plans: list[tuple[np.random.SeedSequence, Mounting, str, list[_Planned]]] = []
     plan: list[_Planned]
-    if rigid.bodies:  # as simulate_study: the motion as given
+    if rigid:  # as simulate_study: the motion as given
         plan = [("quasi-static", quasi_static_speed, motion, "A_quasistatic.csv")]
         plan += [
             ("fast", float(s), motion, f"A_{s:g}_{k + 1:02d}.csv")
