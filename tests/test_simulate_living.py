@@ -342,3 +342,60 @@ def test_rigid_studies_are_as_before_the_living_simulator(tmp_path):
         x = np.loadtxt(tmp_path / "data" / name, delimiter=",", skiprows=1)
         assert x.shape == (sizes[name], 4)
         np.testing.assert_allclose(x[[0, 150, 300, 450]], rows, rtol=1e-8, atol=1e-9)
+
+
+@pytest.mark.parametrize("design", ["one", "two", "horizontal"])
+def test_the_manifest_loads(tmp_path, design):
+    from inertiafit.io import load_study
+
+    manifest, truth = study(tmp_path, seed=3, postures=design)
+    loaded = load_study(tmp_path / "study.toml")
+    assert loaded.living_body == "forearm"
+    assert loaded.passive is not None
+    assert loaded.passive.joint == "elbow"
+    assert loaded.passive.joint_angle_at_zero == 30.0
+    assert loaded.passive.range == (30.0, 120.0)
+    assert loaded.passive.sources["range"] == "manifest"
+    assert {name: (p.gravity_rotation, p.axis_tilt) for name, p in loaded.postures.items()} == (
+        POSTURE_DESIGNS[design]
+    )
+    assert [(t.kind, t.posture) for t in loaded.trials] == [
+        (t["kind"], t["posture"]) for t in manifest["trials"]
+    ]
+    assert truth["passive"]["range"] == [30.0, 120.0]
+
+
+def test_a_knee_alone_has_its_literature_curve(tmp_path):
+    manifest, truth = study(
+        tmp_path,
+        seed=5,
+        bodies={"shank": (3.5, 0.1, 0.2)},
+        living="shank",
+        joint="knee",
+        joint_angle_at_zero=10.0,
+        noise=Noise.none(),
+    )
+    assert set(truth["conditions"]) == {"B"}
+    assert {tuple(e["bodies"]) for e in manifest["trials"]} == {("shank",)}
+    assert manifest["bodies"]["shank"]["living"] is True
+    p = truth["passive"]
+    assert p["range"] == [10.0, 100.0]
+    assert 0.5 <= p["curve_scale"] <= 1.5
+    # A rest trial: gravity, the spring, the stops and the scaled Riener & Edrich curve.
+    rest = read(tmp_path, {"file": "data/B_upright_rest_2.csv"})
+    knee = 10.0 + 45.0
+    curve = -(
+        math.exp(1.800 - 0.0352 * knee + 0.0217 * 90)
+        - math.exp(-3.971 + 0.0495 * knee - 0.0128 * 90)
+        - 4.820
+        + math.exp(2.220 - 0.150 * knee)
+    )
+    expected = (
+        truth["conditions"]["B"]["gravity_moment"] * math.sin(45 * DEG)
+        + p["stiffness"] * (knee - p["relaxed_angle"]) * DEG
+        + p["stop_moment_high"] * math.exp((knee - 100.0) / 10.0)
+        - p["stop_moment_low"] * math.exp((10.0 - knee) / 10.0)
+        + p["curve_scale"] * curve
+    )
+    assert rest["torque"] == pytest.approx(expected, abs=1e-8)
+    assert abs(p["curve_scale"] * curve) > 0.5

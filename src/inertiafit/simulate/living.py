@@ -326,8 +326,8 @@ def simulate_living_study(
 
     Two conditions: the rigid bodies alone (label A; by default the elbow attachment), and
     the rigid bodies with the living one (label B; the attachment and a forearm). The rigid
-    condition has one quasi-static sweep up and ``trials_per_speed`` fast trials at every
-    speed, in the first posture, as :func:`~inertiafit.simulate.simulate_study` writes them.
+    condition has one quasi-static trial and ``trials_per_speed`` fast trials at every speed,
+    in the first posture, as :func:`~inertiafit.simulate.simulate_study` writes them.
     The living condition has, in every posture, quasi-static sweeps (``sweeps``: up, down),
     rest trials (``kind = "rest"``: a still hold of ``motion.hold`` s) at ``rest_angles`` and
     ``trials_per_speed`` fast trials at every speed and in every ``fast_directions``. Its torque
@@ -376,17 +376,19 @@ def simulate_living_study(
     sweeps : sequence of {"up", "down"}
         Directions of the living condition's quasi-static sweeps (at least one).
     fast_directions : sequence of {"up", "down"}
-        Directions of the living condition's fast trials (the rigid condition's go up).
+        Directions of the living condition's fast trials (the rigid condition's take ``motion``).
     rest_angles : sequence of float, optional
         Device angles (deg) of the rest trials; default 1/6, 1/2 and 5/6 of the range.
     gravity_rotation_sd : float
         SD (deg, > 0) of the postures' gravity rotations, written to the manifest and used to
         draw their truth.
-    angle_unit, torque_unit, time_unit, phi, offset, gravity, rate, quasi_static_speed, noise,
-    quasi_static_noise, motion, sampling, name
-        As :func:`~inertiafit.simulate.simulate_study` (``quasi_static_noise`` is also the
-        rest trials'). ``motion``'s range (either direction) is the sweeps' and the fast
-        trials'; its ``hold`` is the rest trials' duration.
+    angle_unit, torque_unit, time_unit, phi, offset, gravity, rate : str or float
+        As :func:`~inertiafit.simulate.simulate_study`.
+    quasi_static_speed, noise, quasi_static_noise, motion, sampling : float, Noise or str
+        As :func:`~inertiafit.simulate.simulate_study`; ``quasi_static_noise`` is also the
+        rest trials'. ``motion``'s range is the sweeps' and the fast trials' (up: towards the
+        larger angle), and the rigid condition's trials take it as given; its ``hold`` is the
+        rest trials' duration.
     priors : mapping of str to (str or mapping), optional
         Prior spec per body instead of the default inline table centred on its values (the
         prior loader's default spread, +-50 %).
@@ -445,9 +447,10 @@ def simulate_living_study(
         for k, (p, (rot, tilt)) in enumerate(design.items())
     }
 
-    rigid = Mounting(tuple(b for b in truth if b != living))
+    rigid_bodies = tuple(b for b in truth if b != living)
     whole = Mounting(tuple(truth))
-    mountings, labels = ([rigid, whole], ["A", "B"]) if rigid.bodies else ([whole], ["B"])
+    rigid = Mounting(rigid_bodies) if rigid_bodies else None
+    mountings, labels = ([rigid, whole], ["A", "B"]) if rigid else ([whole], ["B"])
     out = Path(out_dir)
     data = out / "data"
     data.mkdir(parents=True, exist_ok=True)
@@ -475,7 +478,7 @@ def simulate_living_study(
     # Per condition and posture: its seed and its trials (kind, speed, motion, file name).
     plans: list[tuple[np.random.SeedSequence, Mounting, str, list[_Planned]]] = []
     plan: list[_Planned]
-    if rigid.bodies:  # as simulate_study: the motion as given
+    if rigid:  # as simulate_study: the motion as given
         plan = [("quasi-static", quasi_static_speed, motion, "A_quasistatic.csv")]
         plan += [
             ("fast", float(s), motion, f"A_{s:g}_{k + 1:02d}.csv")
