@@ -42,6 +42,7 @@ from inertiafit.processing.plausibility import fast_trial_flags
 from inertiafit.stats import inverse_variance_mean
 
 __all__ = [
+    "LIVING_ROW_FLAG",
     "LIVING_TRIAL_COLUMNS",
     "PHASE_TOLERANCE",
     "RATE_TOLERANCE",
@@ -80,6 +81,12 @@ TRIAL_COLUMNS = [
 #: Columns ``trials.csv`` gains when a body is living: the trial's posture and a fast trial's
 #: viscous damping ``b`` (N m s/rad) with its standard error.
 LIVING_TRIAL_COLUMNS = ["posture", "damping", "damping_se"]
+#: The flag of a living condition's quasi-static row: what its gravity moment is.
+LIVING_ROW_FLAG = (
+    "living body: gravity_moment here is the rigid fit of this sweep alone, which absorbs the "
+    "passive curve (the paper's method); the condition's M_g is the joint fit's "
+    "(passive_parameters.csv)"
+)
 #: ``status`` of a trial whose values were used, and of one skipped (``on_trial_error``).
 STATUS_OK, STATUS_SKIPPED = "ok", "skipped"
 #: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures.
@@ -364,7 +371,12 @@ def process_study(
         fit = run.attempt(spec, functools.partial(fit_gravity, ds))
         if fit is None:
             continue
-        notes.extend(f"{fit.source}: {flag}" for flag in fit.flags)
+        if spec.condition in living_conditions:
+            # the rigid fit of one sweep absorbs the passive curve: its drift and friction
+            # flags describe that curve, and its M_g is the rigid model's (the paper's)
+            kept = [f for f in fit.flags if f.startswith(("not quasi-static", "small angle"))]
+            fit = dataclasses.replace(fit, flags=(*kept, LIVING_ROW_FLAG))
+        notes.extend(f"{fit.source}: {flag}" for flag in fit.flags if flag != LIVING_ROW_FLAG)
         qs_fits.setdefault(spec.condition, []).append(fit)
         rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
         if spec.condition in living_conditions:
