@@ -190,11 +190,15 @@ def show(out: dict) -> str:
     ]
     return "\n".join(
         [
-            f"== Living-limb coverage: {out['studies_per_design']} studies per design "
-            f"(benchmarks/living_coverage.py)",
+            (
+                f"== Living-limb coverage: {out['studies_per_design']} studies per design "
+                f"(benchmarks/living_coverage.py)"
+            ),
             table(cols, out["rows"]),
-            f"viscous damping b: z-scores mean {out['damping_z_mean']:+.2f}, "
-            f"SD {out['damping_z_sd']:.2f}",
+            (
+                f"viscous damping b: z-scores mean {out['damping_z_mean']:+.2f}, "
+                f"SD {out['damping_z_sd']:.2f}"
+            ),
             f"M_g decided by: {out['pinned_by']}",
             f"{out['seconds']:.0f} s",
         ]
