@@ -22,6 +22,7 @@ from inertiafit.pipeline.fit import fit_result
 from inertiafit.pipeline.study import paper_baselines
 from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior, open_posterior
+from inertiafit.processing.living import living_tables_from_dict
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import TRACE_COLUMNS, TRIAL_COLUMNS, usable_trials
 from inertiafit.report.outputs import DATA_FILES, write_outputs
@@ -109,7 +110,7 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
         baselines=baselines,
         warnings=warnings,
         manifest=inputs.get("manifest", ""),
-        living={k: pd.DataFrame(v) for k, v in inputs.get("living", {}).items()},
+        living=living_tables_from_dict(inputs.get("living", {})),
     )
 
 

@@ -65,9 +65,11 @@ from inertiafit.processing.gravity import (
 )
 
 __all__ = [
+    "CURVE_COLUMNS",
     "LEVERAGE_DATA",
     "LEVERAGE_PRIOR",
     "MAX_BLOCKS",
+    "PARAMETER_COLUMNS",
     "LivingStatics",
     "PassiveBasis",
     "PostureGeometry",
@@ -75,6 +77,7 @@ __all__ = [
     "StaticRecord",
     "fit_statics",
     "living_tables",
+    "living_tables_from_dict",
 ]
 
 #: A trial's samples are averaged in consecutive blocks, at most this many per trial (the
@@ -636,6 +639,45 @@ _UNITS = {
     "rotation": "deg",
     "gravity_moment": "N m",
 }
+
+
+#: Columns of ``passive_parameters.csv`` and the first of ``passive.csv``, in order.
+PARAMETER_COLUMNS = (
+    "parameter",
+    "unit",
+    "mean",
+    "sd",
+    "lower",
+    "upper",
+    "prior_mean",
+    "prior_sd",
+    "pinned_by",
+    "prior_leverage",
+)
+CURVE_COLUMNS = (
+    "joint_angle",
+    "device_angle",
+    "median",
+    "lower",
+    "upper",
+    "prior_lower",
+    "prior_upper",
+)
+
+
+def living_tables_from_dict(stored: Mapping[str, Mapping[str, list]]) -> dict[str, pd.DataFrame]:
+    """:func:`living_tables` back from their JSON form (``posterior.nc``'s ``inputs``).
+
+    JSON keeps no column order: the tables get theirs back (the curve's ``gravity:``
+    columns after the others).
+    """
+    out = {}
+    for name, columns in stored.items():
+        frame = pd.DataFrame(dict(columns))
+        first = PARAMETER_COLUMNS if name == "passive_parameters" else CURVE_COLUMNS
+        order = [c for c in first if c in frame] + sorted(c for c in frame if c not in first)
+        out[name] = frame[order]
+    return out
 
 
 def living_tables(
