@@ -137,3 +137,32 @@ def test_a_quasi_static_torque_signed_opposite_is_flagged(base, tmp_path):
             r"model \(correlation -0\.9\d\)",
             flags_of(processed, f"data/A_240_0{i}.csv"),
         )
+
+
+@pytest.mark.parametrize(
+    "columns",
+    [
+        'columns = { time = "time", angle = "torque", velocity = "velocity", torque = "angle" }',
+        'columns = { time = "time", angle = "angle", velocity = "torque", torque = "velocity" }',
+    ],
+    ids=["angle-torque", "velocity-torque"],
+)
+def test_swapped_columns_are_refused_naming_them_never_the_torque_sign(base, tmp_path, columns):
+    # angle and torque swapped was answered 'set torque_sign = "motion"', which then took the
+    # trial with its inertia 88 % low; set or not, the swap is named, with the mapping to give
+    for setting in (None, 'torque_sign = "motion"'):
+        manifest = study(base, tmp_path / str(bool(setting)), setting)
+        text = manifest.read_text().replace(
+            'file = "data/A_240_01.csv"\n', f'file = "data/A_240_01.csv"\n{columns}\n'
+        )
+        manifest.write_text(text)
+        with pytest.raises(InputError) as error:
+            process_study(manifest)
+        message = str(error.value)
+        assert re.fullmatch(
+            r".*A_240_01\.csv: (angle|velocity) and torque columns swapped\? .* map columns = "
+            r'\{ angle = "angle", velocity = "velocity", torque = "torque" \} \(and their units\) '
+            r"in the manifest",
+            message,
+        ), message
+        assert "torque_sign" not in message

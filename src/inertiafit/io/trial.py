@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from itertools import permutations
 from typing import Any
 
 import numpy as np
@@ -255,6 +256,10 @@ def make_trial(
 
     notes = [str(f) for f in flags]
     check = compare_velocity(t, arrays["angle"], arrays["velocity"])
+    if not _follows_cleanly(check):  # before any advice on units or the torque's sign
+        swapped = _swapped_columns(t, arrays, source=source, names=names)
+        if swapped is not None:
+            raise InputError(swapped)
     if check is not None:
         reverse, said = _judge_velocity(check, source=source, names=names, units=units)
         if reverse:
@@ -328,7 +333,7 @@ def _integral(time: NDArray, velocity: NDArray) -> NDArray:
 
 
 def compare_velocity(
-    time: ArrayLike, angle: ArrayLike, velocity: ArrayLike
+    time: ArrayLike, angle: ArrayLike, velocity: ArrayLike, *, sweep: float = MIN_SWEEP
 ) -> VelocityCheck | None:
     """Compare a velocity channel with the derivative of the angle, robustly.
 
@@ -342,11 +347,13 @@ def compare_velocity(
     ----------
     time, angle, velocity : array_like[nsamples]
         Seconds, radians, radians per second (finite, time increasing).
+    sweep : float, optional
+        Change of the angle a stretch needs to count (default :data:`MIN_SWEEP`).
 
     Returns
     -------
     VelocityCheck or None
-        ``None`` when no stretch sweeps :data:`MIN_SWEEP` (nothing to compare).
+        ``None`` when no stretch sweeps ``sweep`` (nothing to compare).
     """
     t = np.asarray(time, dtype=np.float64)
     theta = np.asarray(angle, dtype=np.float64)
@@ -360,7 +367,7 @@ def compare_velocity(
         ratios = []
         for length in sorted({min(max(round(s / step), 1), n - 1) for s in _STRETCHES}):
             change = theta[length:] - theta[:-length]
-            moved = np.abs(change) >= MIN_SWEEP
+            moved = np.abs(change) >= sweep
             if moved.any():
                 ratios.append((integral[length:] - integral[:-length])[moved] / change[moved])
         if not ratios:
@@ -378,6 +385,118 @@ def compare_velocity(
         else:
             spread = math.inf
     return VelocityCheck(ratio=ratio, stretches=int(r.size), agreement=agreement, spread=spread)
+
+
+#: The velocity channel is taken to be the angle's derivative, with no search for swapped
+#: columns, when it follows the angle decisively, within VELOCITY_SCALE_FLAG, and with its
+#: stretches' quartile ratio at most this (1.00-1.16 on every real export; 1.3-1.5 for a
+#: one-signed torque against the angle of a constant-speed move).
+_CLEAN_SPREAD = 1.25
+#: Swapped columns: a channel "follows the derivative" of another when, over stretches that
+#: change the other by at least ``_SWAP_SWEEP`` of its range (channels of other quantities are
+#: in other units, so no fixed sweep applies), at least ``_SWAP_STRETCHES`` stretches count,
+#: ``_SWAP_AGREEMENT`` of them agree in sign and their quartile ratio is ``_SWAP_SPREAD`` or less.
+_SWAP_SWEEP = 0.1
+_SWAP_STRETCHES = 20
+_SWAP_AGREEMENT = 0.95
+_SWAP_SPREAD = 1.2
+
+
+def _follows_cleanly(check: VelocityCheck | None) -> bool:
+    """Whether the velocity follows the angle beyond doubt (no column swap to look for)."""
+    return (
+        check is not None
+        and check.decisive
+        and 1 / VELOCITY_SCALE_FLAG <= abs(check.ratio) <= VELOCITY_SCALE_FLAG
+        and check.spread <= _CLEAN_SPREAD
+    )
+
+
+def _follows(time: NDArray, angle: NDArray, velocity: NDArray) -> VelocityCheck | None:
+    """``velocity`` compared with the derivative of ``angle`` in any units, if it follows it.
+
+    A channel that never changes is no velocity. Where the angle moves at one steady rate (a
+    quasi-static sweep), a constant would follow it too, so the channel must follow it at
+    least about as tightly as a constant does: a one-signed torque of a constant-speed move
+    follows it only loosely.
+    """
+    span = float(np.ptp(angle))
+    if not (math.isfinite(span) and span > 0) or float(np.ptp(velocity)) == 0:
+        return None
+    sweep = _SWAP_SWEEP * span
+    check = compare_velocity(time, angle, velocity, sweep=sweep)
+    if not _tight(check):
+        return None
+    assert check is not None
+    steady = compare_velocity(time, angle, np.ones_like(angle), sweep=sweep)
+    if _tight(steady) and check.spread > 1.05 * steady.spread:  # type: ignore[union-attr]
+        return None
+    return check
+
+
+def _tight(check: VelocityCheck | None) -> bool:
+    """Enough stretches that agree in sign and in size for :func:`_follows`."""
+    return (
+        check is not None
+        and check.stretches >= _SWAP_STRETCHES
+        and check.agreement >= _SWAP_AGREEMENT
+        and check.spread <= _SWAP_SPREAD
+    )
+
+
+def _swapped_columns(
+    time: NDArray, arrays: Mapping[str, NDArray], *, source: str, names: Mapping[str, str]
+) -> str | None:
+    """The message for columns mapped to the wrong channels, or ``None``.
+
+    The velocity channel does not follow the angle's derivative (:func:`_follows_cleanly`);
+    if another channel follows the derivative of another, much better than the declared pair
+    does, the file's columns hold the channels in another order: a torque column holding the
+    angle reads as a torque that never turns negative (which ``torque_sign`` cannot fix), an
+    angle column holding the torque as gravity at the wrong angles.
+    """
+    channels = ("angle", "velocity", "torque")
+    declared = _follows(time, arrays["angle"], arrays["velocity"])
+    found = []
+    for angle, velocity in permutations(channels, 2):
+        if (angle, velocity) != ("angle", "velocity"):
+            check = _follows(time, arrays[angle], arrays[velocity])
+            if check is not None:
+                found.append((check.spread, angle, velocity, check))
+    if not found:
+        return None
+    spread, angle, velocity, check = min(found, key=lambda f: f[0])
+    if declared is not None and declared.spread <= spread * 1.1:
+        return None
+    torque = next(c for c in channels if c not in (angle, velocity))
+    mapping = {"angle": angle, "velocity": velocity, "torque": torque}
+    moved = [c for c in channels if mapping[c] != c]
+    what = ", ".join(moved[:-1]) + " and " + moved[-1]
+    fix = ", ".join(f'{c} = "{names[mapping[c]]}"' for c in channels)
+    over = f"over {check.stretches} stretches"
+    if velocity == "velocity":
+        found_text = (
+            f"column '{names[velocity]}' (the velocity) follows the derivative of column "
+            f"'{names[angle]}' (read as the {angle}) {over}, not of column '{names['angle']}' "
+            "read as the angle"
+        )
+    elif angle == "angle":
+        found_text = (
+            f"the derivative of column '{names[angle]}' (the angle) is column "
+            f"'{names[velocity]}' (read as the {velocity}) {over}, not column "
+            f"'{names['velocity']}' read as the velocity"
+        )
+    else:
+        found_text = (
+            f"column '{names[velocity]}' (read as the {velocity}) follows the derivative of "
+            f"column '{names[angle]}' (read as the {angle}) {over}, and column "
+            f"'{names['velocity']}' read as the velocity does not follow column "
+            f"'{names['angle']}' read as the angle"
+        )
+    return (
+        f"{source}: {what} columns swapped? {found_text}: map columns = {{ {fix} }} (and "
+        "their units) in the manifest"
+    )
 
 
 def _unit_causes(factor: float) -> list[str]:
