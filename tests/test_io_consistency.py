@@ -186,6 +186,23 @@ def test_a_velocity_unrelated_to_the_angle_is_flagged_not_corrected():
     )
 
 
+@pytest.mark.parametrize("channel", ["angle", "velocity", "torque"])
+def test_a_value_no_dynamometer_reaches_is_refused_naming_its_line(channel):
+    # a torque of 1e308 passed as finite: its squares overflowed into a NaN inertia, named as
+    # the manifest's condition
+    t, angle, v = stroke()
+    given = {"angle": angle, "velocity": v, "torque": np.ones(t.size)}
+    given[channel] = given[channel].copy()
+    given[channel][30] = 1e308
+    with pytest.raises(
+        InputError,
+        match=rf"^A\.csv: column '{channel}' holds 1e\+308 (rad|rad/s|N m) at line 32, beyond 1e\+09 ",
+    ):
+        make_trial(t, **given, source="A.csv", lines=np.arange(t.size) + 2)
+    given[channel][30] = 0.9e9 if channel == "torque" else given[channel][29]
+    make_trial(t, **given, source="A.csv")  # a large torque, but one a reading can hold
+
+
 # ------------------------------------------------------------------------- swapped columns
 
 #: The file's column of each channel in the swap tests (other names than the channels').

@@ -166,3 +166,21 @@ def test_swapped_columns_are_refused_naming_them_never_the_torque_sign(base, tmp
             message,
         ), message
         assert "torque_sign" not in message
+
+
+def test_a_quasi_static_sweep_too_short_for_the_gravity_model_is_named(base, tmp_path):
+    # 2.5 deg of a 90-deg sweep: M_g 185 +- 703 N m, the inertias 1.28 for 0.20 kg m^2; it was
+    # reported as fast trials outside the prior box, with no word of the quasi-static trial
+    def cut(folder):
+        path = folder / "data" / "A_quasistatic.csv"
+        frame = pd.read_csv(path)
+        low = frame.angle.min() + 40
+        frame[(frame.angle >= low) & (frame.angle <= low + 2.5)].to_csv(path, index=False)
+
+    with pytest.raises(
+        InputError,
+        match=r"A_240_01\.csv: its condition's gravity model \(from \S+A_quasistatic\.csv, a "
+        r"sweep of 2\.5 deg: M_g = \d+\.?\d* \+- \S+ N m\) moves this trial's inertia 1\.\d+ "
+        r"kg m\^2 by \+- \d\.\d: record the quasi-static trial over the fast trials' range",
+    ):
+        process_study(study(base, tmp_path, edit=cut))

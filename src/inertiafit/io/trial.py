@@ -38,6 +38,7 @@ from inertiafit.io.units import QUANTITIES, SI_UNITS
 __all__ = [
     "GAP_FACTOR",
     "MAGNITUDE_FLAG",
+    "MAX_MAGNITUDE",
     "MIN_SAMPLES",
     "MIN_SWEEP",
     "MOTION_FLOOR",
@@ -58,6 +59,10 @@ __all__ = [
 
 #: Fewest samples a trial may have; fewer cannot hold an acceleration window or a fit.
 MIN_SAMPLES = 10
+#: Largest size of an angle (rad), velocity (rad/s) or torque (N m) sample: far beyond any
+#: dynamometer, and far below where squares and sums of squares overflow (a torque of 1e308
+#: gave a NaN inertia and an overflow warning, and the error named the manifest's condition).
+MAX_MAGNITUDE = 1e9
 #: A time step longer than this multiple of the median step is a gap (lost samples).
 GAP_FACTOR = 1.5
 #: A time step shorter than this multiple of the median step is uneven sampling (a repeated or
@@ -179,9 +184,11 @@ def make_trial(
     ------
     InputError
         If the channels differ in length, have fewer than ``MIN_SAMPLES`` samples, contain a
-        NaN or infinite value, if time does not strictly increase, if a time step exceeds
-        ``GAP_FACTOR`` times the median step (a gap) or falls short of ``SHORT_STEP_FACTOR``
-        times it, or if the velocity is a unit factor away from the angle's derivative.
+        NaN or infinite value or an angle, velocity or torque beyond ``MAX_MAGNITUDE``, if time
+        does not strictly increase, if a time step exceeds ``GAP_FACTOR`` times the median step
+        (a gap) or falls short of ``SHORT_STEP_FACTOR`` times it, if the velocity is a unit
+        factor away from the angle's derivative, or if the columns look swapped (the velocity
+        follows the derivative of another channel than the angle).
     """
     names = {q: q for q in QUANTITIES}
     if columns:
@@ -224,6 +231,17 @@ def make_trial(
             raise InputError(
                 f"{source}: column '{names[quantity]}' has a missing or non-finite value "
                 f"({float(array[i])}) at {row_word} {where[i]}{extra}; values must be finite numbers"
+            )
+
+    for quantity in QUANTITIES[1:]:
+        big = np.abs(arrays[quantity]) > MAX_MAGNITUDE
+        if big.any():
+            i = int(np.argmax(big))
+            raise InputError(
+                f"{source}: column '{names[quantity]}' holds {arrays[quantity][i]:.4g} "
+                f"{SI_UNITS[quantity]} at {row_word} {where[i]}, beyond {MAX_MAGNITUDE:g} "
+                f"{SI_UNITS[quantity]}, which no dynamometer reaches (a corrupt value, or "
+                "the wrong unit?)"
             )
 
     t = arrays["time"]
