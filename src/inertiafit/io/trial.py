@@ -443,20 +443,18 @@ def _follows(time: NDArray, angle: NDArray, velocity: NDArray) -> VelocityCheck 
         return None
     sweep = _SWAP_SWEEP * span
     check = compare_velocity(time, angle, velocity, sweep=sweep)
-    if not _tight(check):
+    if check is None or not _tight(check):
         return None
-    assert check is not None
     steady = compare_velocity(time, angle, np.ones_like(angle), sweep=sweep)
-    if _tight(steady) and check.spread > 1.05 * steady.spread:  # type: ignore[union-attr]
+    if steady is not None and _tight(steady) and check.spread > 1.05 * steady.spread:
         return None
     return check
 
 
-def _tight(check: VelocityCheck | None) -> bool:
+def _tight(check: VelocityCheck) -> bool:
     """Enough stretches that agree in sign and in size for :func:`_follows`."""
     return (
-        check is not None
-        and check.stretches >= _SWAP_STRETCHES
+        check.stretches >= _SWAP_STRETCHES
         and check.agreement >= _SWAP_AGREEMENT
         and check.spread <= _SWAP_SPREAD
     )
@@ -484,7 +482,7 @@ def _swapped_columns(
     if not found:
         return None
     spread, angle, velocity, check = min(found, key=lambda f: f[0])
-    if declared is not None and declared.spread <= spread * 1.1:
+    if declared is not None and declared.spread <= spread * 1.1:  # not clearly the better
         return None
     torque = next(c for c in channels if c not in (angle, velocity))
     mapping = {"angle": angle, "velocity": velocity, "torque": torque}
