@@ -186,6 +186,78 @@ def test_a_velocity_unrelated_to_the_angle_is_flagged_not_corrected():
     )
 
 
+@pytest.mark.parametrize("channel", ["angle", "velocity", "torque"])
+def test_a_value_no_dynamometer_reaches_is_refused_naming_its_line(channel):
+    # a torque of 1e308 passed as finite: its squares overflowed into a NaN inertia, named as
+    # the manifest's condition
+    t, angle, v = stroke()
+    given = {"angle": angle, "velocity": v, "torque": np.ones(t.size)}
+    given[channel] = given[channel].copy()
+    given[channel][30] = 1e308
+    with pytest.raises(
+        InputError,
+        match=rf"^A\.csv: column '{channel}' holds 1e\+308 (rad|rad/s|N m) at line 32, beyond 1e\+09 ",
+    ):
+        make_trial(t, **given, source="A.csv", lines=np.arange(t.size) + 2)
+    given[channel][30] = 0.9e9 if channel == "torque" else given[channel][29]
+    make_trial(t, **given, source="A.csv")  # a large torque, but one a reading can hold
+
+
+# ------------------------------------------------------------------------- swapped columns
+
+#: The file's column of each channel in the swap tests (other names than the channels').
+FILE_COLUMNS = {"angle": "Pos", "velocity": "Vel", "torque": "Tq"}
+
+
+@pytest.fixture(scope="module")
+def simulated_pair():
+    """A fast and a quasi-static trial of the attachment (angle rad, velocity rad/s, N m)."""
+    common = {"inertia": 0.2, "gravity_moment": 6.7, "phi": 0.2, "offset": 1.5}
+    return {
+        "fast": simulate_trial(kind="fast", speed_deg_s=240, rng=3, **common),
+        "quasi-static": simulate_trial(kind="quasi-static", speed_deg_s=4, rng=4, **common),
+    }
+
+
+@pytest.mark.parametrize("kind", ["fast", "quasi-static"])
+@pytest.mark.parametrize(
+    "read_as",  # the channel each of the file's angle, velocity, torque columns is read as
+    [
+        ("torque", "velocity", "angle"),
+        ("angle", "torque", "velocity"),
+        ("velocity", "angle", "torque"),
+        ("velocity", "torque", "angle"),
+        ("torque", "angle", "velocity"),
+    ],
+)
+def test_swapped_columns_are_named_with_the_mapping_that_fixes_them(simulated_pair, kind, read_as):
+    trial = simulated_pair[kind]
+    true = ("angle", "velocity", "torque")
+    given = {read: trial[channel].values for channel, read in zip(true, read_as, strict=True)}
+    columns = {read: FILE_COLUMNS[channel] for channel, read in zip(true, read_as, strict=True)}
+    moved = " and ".join(c for c in true if columns[c] != FILE_COLUMNS[c]).replace(
+        "angle and velocity and", "angle, velocity and"
+    )
+    with pytest.raises(InputError) as error:
+        make_trial(trial.time.values, **given, source="A.csv", columns=columns)
+    message = str(error.value)
+    assert message.startswith(f"A.csv: {moved} columns swapped? ")
+    assert message.endswith(
+        'map columns = { angle = "Pos", velocity = "Vel", torque = "Tq" } (and their units) '
+        "in the manifest"
+    )
+    assert "torque_sign" not in message
+    assert "\n" not in message
+    # negative control: the same channels mapped right are read without a word about them
+    right = make_trial(
+        trial.time.values,
+        *(trial[c].values for c in true),
+        source="A.csv",
+        columns=FILE_COLUMNS,
+    )
+    assert not [f for f in right.attrs["flags"] if f.startswith("velocity:")]
+
+
 # ------------------------------------------------------------------------------ even time
 
 

@@ -255,6 +255,9 @@ def test_catalogue_one_line_exit_2_nothing_touched(setup, expected, tmp_path, mo
     assert snapshot(tmp_path) == before
 
 
+# Real permissions, for users other than root. The same refusals are injected (so they run as
+# root too, as CI containers often do) by test_a_parent_that_cannot_be_written_is_one_line and
+# test_an_entry_that_cannot_be_removed_is_left_aside_with_a_warning.
 @pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root writes anywhere")
 def test_unwritable_parent_is_one_line(tmp_path, capsys):
     ro = tmp_path / "ro"
@@ -466,6 +469,39 @@ def test_a_read_only_subfolder_of_the_old_outputs_is_left_aside_with_a_warning(t
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1
     assert f"moved aside to {aside[0]} could not all be removed" in lines[0]
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc to name a dir_fd")
+def test_an_entry_that_cannot_be_removed_is_left_aside_with_a_warning(
+    tmp_path, monkeypatch, capsys
+):
+    # the read-only subfolder above for every user, root included: the kernel refuses to
+    # unlink the entries of sub/ (as it does in a read-only folder, or for an open file on
+    # Windows), and the real shutil.rmtree meets that refusal part-way through the old folder
+    out = tmp_path / "out"
+    _write(out, OLD)
+    capsys.readouterr()
+    real_unlink = os.unlink
+
+    def unlink(path, *args, dir_fd=None, **kwargs):
+        folder = Path(os.readlink(f"/proc/self/fd/{dir_fd}")) if dir_fd else Path(path).parent
+        if folder.name == "sub" and folder.parent.name.startswith(".out.old-"):
+            raise PermissionError(13, "Permission denied", str(path))
+        return real_unlink(path, *args, dir_fd=dir_fd, **kwargs)
+
+    monkeypatch.setattr(os, "unlink", unlink)
+    _write(out, NEW)
+    monkeypatch.undo()
+    assert _contents(out) == NEW
+    aside = [p for p in tmp_path.iterdir() if p.name.startswith(".out.old-")]
+    assert len(aside) == 1
+    assert _contents(aside[0]) == {"sub/x.csv": "old x"}  # what could be removed was
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0] == (
+        f"inertiafit: warning: the new outputs are in {out}, but the old ones moved aside to "
+        f"{aside[0]} could not all be removed (Permission denied); delete that folder yourself"
+    )
 
 
 def test_new_folder_and_its_way_back_both_failing_names_where_the_old_one_is(

@@ -137,3 +137,50 @@ def test_a_quasi_static_torque_signed_opposite_is_flagged(base, tmp_path):
             r"model \(correlation -0\.9\d\)",
             flags_of(processed, f"data/A_240_0{i}.csv"),
         )
+
+
+@pytest.mark.parametrize(
+    "columns",
+    [
+        'columns = { time = "time", angle = "torque", velocity = "velocity", torque = "angle" }',
+        'columns = { time = "time", angle = "angle", velocity = "torque", torque = "velocity" }',
+    ],
+    ids=["angle-torque", "velocity-torque"],
+)
+def test_swapped_columns_are_refused_naming_them_never_the_torque_sign(base, tmp_path, columns):
+    # angle and torque swapped was answered 'set torque_sign = "motion"', which then took the
+    # trial with its inertia 88 % low; set or not, the swap is named, with the mapping to give
+    for setting in (None, 'torque_sign = "motion"'):
+        manifest = study(base, tmp_path / str(bool(setting)), setting)
+        text = manifest.read_text().replace(
+            'file = "data/A_240_01.csv"\n', f'file = "data/A_240_01.csv"\n{columns}\n'
+        )
+        manifest.write_text(text)
+        with pytest.raises(InputError) as error:
+            process_study(manifest)
+        message = str(error.value)
+        assert re.fullmatch(
+            r".*A_240_01\.csv: (angle|velocity) and torque columns swapped\? .* map columns = "
+            r'\{ angle = "angle", velocity = "velocity", torque = "torque" \} \(and their units\) '
+            r"in the manifest",
+            message,
+        ), message
+        assert "torque_sign" not in message
+
+
+def test_a_quasi_static_sweep_too_short_for_the_gravity_model_is_named(base, tmp_path):
+    # 2.5 deg of a 90-deg sweep: M_g 185 +- 703 N m, the inertias 1.28 for 0.20 kg m^2; it was
+    # reported as fast trials outside the prior box, with no word of the quasi-static trial
+    def cut(folder):
+        path = folder / "data" / "A_quasistatic.csv"
+        frame = pd.read_csv(path)
+        low = frame.angle.min() + 40
+        frame[(frame.angle >= low) & (frame.angle <= low + 2.5)].to_csv(path, index=False)
+
+    with pytest.raises(
+        InputError,
+        match=r"A_240_01\.csv: its condition's gravity model \(from \S+A_quasistatic\.csv, a "
+        r"sweep of 2\.5 deg: M_g = \d+\.?\d* \+- \S+ N m\) moves this trial's inertia 1\.\d+ "
+        r"kg m\^2 by \+- \d\.\d: record the quasi-static trial over the fast trials' range",
+    ):
+        process_study(study(base, tmp_path, edit=cut))

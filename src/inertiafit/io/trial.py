@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from itertools import permutations
 from typing import Any
 
 import numpy as np
@@ -37,6 +38,7 @@ from inertiafit.io.units import QUANTITIES, SI_UNITS
 __all__ = [
     "GAP_FACTOR",
     "MAGNITUDE_FLAG",
+    "MAX_MAGNITUDE",
     "MIN_SAMPLES",
     "MIN_SWEEP",
     "MOTION_FLOOR",
@@ -57,6 +59,10 @@ __all__ = [
 
 #: Fewest samples a trial may have; fewer cannot hold an acceleration window or a fit.
 MIN_SAMPLES = 10
+#: Largest size of an angle (rad), velocity (rad/s) or torque (N m) sample: far beyond any
+#: dynamometer, and far below where squares and sums of squares overflow (a torque of 1e308
+#: gave a NaN inertia and an overflow warning, and the error named the manifest's condition).
+MAX_MAGNITUDE = 1e9
 #: A time step longer than this multiple of the median step is a gap (lost samples).
 GAP_FACTOR = 1.5
 #: A time step shorter than this multiple of the median step is uneven sampling (a repeated or
@@ -178,9 +184,11 @@ def make_trial(
     ------
     InputError
         If the channels differ in length, have fewer than ``MIN_SAMPLES`` samples, contain a
-        NaN or infinite value, if time does not strictly increase, if a time step exceeds
-        ``GAP_FACTOR`` times the median step (a gap) or falls short of ``SHORT_STEP_FACTOR``
-        times it, or if the velocity is a unit factor away from the angle's derivative.
+        NaN or infinite value or an angle, velocity or torque beyond ``MAX_MAGNITUDE``, if time
+        does not strictly increase, if a time step exceeds ``GAP_FACTOR`` times the median step
+        (a gap) or falls short of ``SHORT_STEP_FACTOR`` times it, if the velocity is a unit
+        factor away from the angle's derivative, or if the columns look swapped (the velocity
+        follows the derivative of another channel than the angle).
     """
     names = {q: q for q in QUANTITIES}
     if columns:
@@ -225,6 +233,17 @@ def make_trial(
                 f"({float(array[i])}) at {row_word} {where[i]}{extra}; values must be finite numbers"
             )
 
+    for quantity in QUANTITIES[1:]:
+        big = np.abs(arrays[quantity]) > MAX_MAGNITUDE
+        if big.any():
+            i = int(np.argmax(big))
+            raise InputError(
+                f"{source}: column '{names[quantity]}' holds {arrays[quantity][i]:.4g} "
+                f"{SI_UNITS[quantity]} at {row_word} {where[i]}, beyond {MAX_MAGNITUDE:g} "
+                f"{SI_UNITS[quantity]}, which no dynamometer reaches (a corrupt value, or "
+                "the wrong unit?)"
+            )
+
     t = arrays["time"]
     dt = np.diff(t)
     bad = dt <= 0
@@ -255,6 +274,10 @@ def make_trial(
 
     notes = [str(f) for f in flags]
     check = compare_velocity(t, arrays["angle"], arrays["velocity"])
+    if not _follows_cleanly(check):  # before any advice on units or the torque's sign
+        swapped = _swapped_columns(t, arrays, source=source, names=names)
+        if swapped is not None:
+            raise InputError(swapped)
     if check is not None:
         reverse, said = _judge_velocity(check, source=source, names=names, units=units)
         if reverse:
@@ -328,7 +351,7 @@ def _integral(time: NDArray, velocity: NDArray) -> NDArray:
 
 
 def compare_velocity(
-    time: ArrayLike, angle: ArrayLike, velocity: ArrayLike
+    time: ArrayLike, angle: ArrayLike, velocity: ArrayLike, *, sweep: float = MIN_SWEEP
 ) -> VelocityCheck | None:
     """Compare a velocity channel with the derivative of the angle, robustly.
 
@@ -342,11 +365,13 @@ def compare_velocity(
     ----------
     time, angle, velocity : array_like[nsamples]
         Seconds, radians, radians per second (finite, time increasing).
+    sweep : float, optional
+        Change of the angle a stretch needs to count (default :data:`MIN_SWEEP`).
 
     Returns
     -------
     VelocityCheck or None
-        ``None`` when no stretch sweeps :data:`MIN_SWEEP` (nothing to compare).
+        ``None`` when no stretch sweeps ``sweep`` (nothing to compare).
     """
     t = np.asarray(time, dtype=np.float64)
     theta = np.asarray(angle, dtype=np.float64)
@@ -360,7 +385,7 @@ def compare_velocity(
         ratios = []
         for length in sorted({min(max(round(s / step), 1), n - 1) for s in _STRETCHES}):
             change = theta[length:] - theta[:-length]
-            moved = np.abs(change) >= MIN_SWEEP
+            moved = np.abs(change) >= sweep
             if moved.any():
                 ratios.append((integral[length:] - integral[:-length])[moved] / change[moved])
         if not ratios:
@@ -378,6 +403,116 @@ def compare_velocity(
         else:
             spread = math.inf
     return VelocityCheck(ratio=ratio, stretches=int(r.size), agreement=agreement, spread=spread)
+
+
+#: The velocity channel is taken to be the angle's derivative, with no search for swapped
+#: columns, when it follows the angle decisively, within VELOCITY_SCALE_FLAG, and with its
+#: stretches' quartile ratio at most this (1.00-1.16 on every real export; 1.3-1.5 for a
+#: one-signed torque against the angle of a constant-speed move).
+_CLEAN_SPREAD = 1.25
+#: Swapped columns: a channel "follows the derivative" of another when, over stretches that
+#: change the other by at least ``_SWAP_SWEEP`` of its range (channels of other quantities are
+#: in other units, so no fixed sweep applies), at least ``_SWAP_STRETCHES`` stretches count,
+#: ``_SWAP_AGREEMENT`` of them agree in sign and their quartile ratio is ``_SWAP_SPREAD`` or less.
+_SWAP_SWEEP = 0.1
+_SWAP_STRETCHES = 20
+_SWAP_AGREEMENT = 0.95
+_SWAP_SPREAD = 1.2
+
+
+def _follows_cleanly(check: VelocityCheck | None) -> bool:
+    """Whether the velocity follows the angle beyond doubt (no column swap to look for)."""
+    return (
+        check is not None
+        and check.decisive
+        and 1 / VELOCITY_SCALE_FLAG <= abs(check.ratio) <= VELOCITY_SCALE_FLAG
+        and check.spread <= _CLEAN_SPREAD
+    )
+
+
+def _follows(time: NDArray, angle: NDArray, velocity: NDArray) -> VelocityCheck | None:
+    """``velocity`` compared with the derivative of ``angle`` in any units, if it follows it.
+
+    A channel that never changes is no velocity. Where the angle moves at one steady rate (a
+    quasi-static sweep), a constant would follow it too, so the channel must follow it at
+    least about as tightly as a constant does: a one-signed torque of a constant-speed move
+    follows it only loosely.
+    """
+    span = float(np.ptp(angle))
+    if not (math.isfinite(span) and span > 0) or float(np.ptp(velocity)) == 0:
+        return None
+    sweep = _SWAP_SWEEP * span
+    check = compare_velocity(time, angle, velocity, sweep=sweep)
+    if check is None or not _tight(check):
+        return None
+    steady = compare_velocity(time, angle, np.ones_like(angle), sweep=sweep)
+    if steady is not None and _tight(steady) and check.spread > 1.05 * steady.spread:
+        return None
+    return check
+
+
+def _tight(check: VelocityCheck) -> bool:
+    """Enough stretches that agree in sign and in size for :func:`_follows`."""
+    return (
+        check.stretches >= _SWAP_STRETCHES
+        and check.agreement >= _SWAP_AGREEMENT
+        and check.spread <= _SWAP_SPREAD
+    )
+
+
+def _swapped_columns(
+    time: NDArray, arrays: Mapping[str, NDArray], *, source: str, names: Mapping[str, str]
+) -> str | None:
+    """The message for columns mapped to the wrong channels, or ``None``.
+
+    The velocity channel does not follow the angle's derivative (:func:`_follows_cleanly`);
+    if another channel follows the derivative of another, much better than the declared pair
+    does, the file's columns hold the channels in another order: a torque column holding the
+    angle reads as a torque that never turns negative (which ``torque_sign`` cannot fix), an
+    angle column holding the torque as gravity at the wrong angles.
+    """
+    channels = ("angle", "velocity", "torque")
+    declared = _follows(time, arrays["angle"], arrays["velocity"])
+    found = []
+    for angle, velocity in permutations(channels, 2):
+        if (angle, velocity) != ("angle", "velocity"):
+            check = _follows(time, arrays[angle], arrays[velocity])
+            if check is not None:
+                found.append((check.spread, angle, velocity, check))
+    if not found:
+        return None
+    spread, angle, velocity, check = min(found, key=lambda f: f[0])
+    if declared is not None and declared.spread <= spread * 1.1:  # not clearly the better
+        return None
+    torque = next(c for c in channels if c not in (angle, velocity))
+    mapping = {"angle": angle, "velocity": velocity, "torque": torque}
+    moved = [c for c in channels if mapping[c] != c]
+    what = ", ".join(moved[:-1]) + " and " + moved[-1]
+    fix = ", ".join(f'{c} = "{names[mapping[c]]}"' for c in channels)
+    over = f"over {check.stretches} stretches"
+    if velocity == "velocity":
+        found_text = (
+            f"column '{names[velocity]}' (the velocity) follows the derivative of column "
+            f"'{names[angle]}' (read as the {angle}) {over}, not of column '{names['angle']}' "
+            "read as the angle"
+        )
+    elif angle == "angle":
+        found_text = (
+            f"the derivative of column '{names[angle]}' (the angle) is column "
+            f"'{names[velocity]}' (read as the {velocity}) {over}, not column "
+            f"'{names['velocity']}' read as the velocity"
+        )
+    else:
+        found_text = (
+            f"column '{names[velocity]}' (read as the {velocity}) follows the derivative of "
+            f"column '{names[angle]}' (read as the {angle}) {over}, and column "
+            f"'{names['velocity']}' read as the velocity does not follow column "
+            f"'{names['angle']}' read as the angle"
+        )
+    return (
+        f"{source}: {what} columns swapped? {found_text}: map columns = {{ {fix} }} (and "
+        "their units) in the manifest"
+    )
 
 
 def _unit_causes(factor: float) -> list[str]:

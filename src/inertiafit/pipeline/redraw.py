@@ -60,6 +60,16 @@ def _read_table(
         raise InputError(
             f"{path}: column '{missing[0]}' missing; not a {path.name} written by inertiafit"
         )
+    for column in (c for c in columns if c not in dtypes):  # the others hold numbers
+        values = pd.to_numeric(table[column], errors="coerce")
+        bad = values.isna() & table[column].notna()
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            raise InputError(
+                f"{path}: line {row + 2}, column '{column}': {table[column].iloc[row]!r} is not a "
+                f"number; not a {path.name} as inertiafit wrote it"
+            )
+        table[column] = values
     return table
 
 
