@@ -19,7 +19,7 @@ from inertiafit.processing.study import LIVING_ROW_FLAG, process_study
 from inertiafit.simulate import simulate_living_study
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-import living_coverage  # noqa: E402
+import living_coverage
 
 
 @pytest.fixture(scope="module")

@@ -34,7 +34,7 @@ The package's modules: :mod:`~inertiafit.simulate.signals` (the signal model,
 from __future__ import annotations
 
 from inertiafit.io.units import FT_LBF
-from inertiafit.simulate.living import PassiveTruth, simulate_living_study
+from inertiafit.simulate.living import PassiveTruth, rigid_view, simulate_living_study
 from inertiafit.simulate.paper import PAPER_PRIORS, PAPER_TRUTH, paper_study
 from inertiafit.simulate.signals import KINDS, Body, Motion, Noise, simulate_trial
 from inertiafit.simulate.study import simulate_study
@@ -49,6 +49,7 @@ __all__ = [
     "Noise",
     "PassiveTruth",
     "paper_study",
+    "rigid_view",
     "simulate_living_study",
     "simulate_study",
     "simulate_trial",

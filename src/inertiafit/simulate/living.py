@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +49,7 @@ __all__ = [
     "PASSIVE_KEYS",
     "POSTURE_DESIGNS",
     "PassiveTruth",
+    "rigid_view",
     "simulate_living_study",
     "smooth_sign",
 ]
@@ -568,3 +570,31 @@ def _passive_table(truth: PassiveTruth, extra: Mapping[str, Any] | None) -> list
             raise ValueError(msg)
         table[key] = value
     return ["[passive]", *(f"{k} = {toml_value(v)}" for k, v in table.items()), ""]
+
+
+def rigid_view(manifest: str | Path) -> Path:
+    """The same simulated study as today's rigid analysis would read it: ``rigid.toml``.
+
+    Beside ``manifest``: the bodies without ``living``, no ``[passive]`` or ``[postures]``,
+    the first posture's up sweep and fast trials only (one sweep per condition, as for a
+    rigid body), no rest trials. For showing the bias a rigid model makes on a living limb
+    (the demo, ``benchmarks/living_coverage.py``).
+    """
+    manifest = Path(manifest)
+    doc = tomllib.loads(manifest.read_text(encoding="utf-8"))
+    first = next(iter(doc.get("postures", {"": None})))
+    lines = [f"name = {toml_value(doc['name'] + ' (rigid)')}", f"gravity = {doc['gravity']!r}"]
+    for name, body in doc["bodies"].items():
+        lines += ["", f"[bodies.{name}]", f"prior = {toml_value(body['prior'])}"]
+    lines += ["", "[defaults]"]
+    lines += [f"{k} = {toml_value(v)}" for k, v in doc["defaults"].items() if k != "posture"]
+    for trial in doc["trials"]:
+        if trial["kind"] == "rest" or trial.get("posture", first) != first:
+            continue
+        if trial["kind"] == "quasi-static" and trial["file"].endswith("_down.csv"):
+            continue  # today's protocol: one sweep per condition
+        lines += ["", "[[trials]]"]
+        lines += [f"{k} = {toml_value(v)}" for k, v in trial.items() if k != "posture"]
+    out = manifest.with_name("rigid.toml")
+    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return out
