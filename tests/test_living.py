@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from inertiafit.errors import InputError
 from inertiafit.passive import passive_moment
 from inertiafit.processing.gravity import fit_gravity_arrays
 from inertiafit.processing.inertia import estimate_inertia
@@ -242,3 +243,21 @@ def test_simulation_based_calibration_of_the_static_fit(postures):
     assert stats.kstest(ranks, "uniform").pvalue > 1e-3
     control = _sbc_ranks(postures, postures, 60, rng, rigid=True)
     assert stats.kstest(control, "uniform").pvalue < 1e-6
+
+
+def test_a_living_fast_trial_cut_before_its_deceleration_is_one_line():
+    rng = np.random.default_rng(6)
+    fit = fit_statics(_study(rng, ONE, _truth(rng)), ONE, BASIS)
+    trial = simulate_trial(
+        inertia=0.25,
+        gravity_moment=GRAVITY_MOMENT,
+        speed_deg_s=180.0,
+        phi=PHI,
+        rng=1,
+        noise=Noise(torque_sd=0.0, velocity_sd=0.0, angle_step=0.0, lag=0.0),
+    )
+    cut = trial.isel(time=slice(0, int(0.5 * trial.sizes["time"])))  # stops at full speed
+    cut.attrs["source"] = "cut.csv"
+    with pytest.raises(InputError, match=r"^cut\.csv.*deceleration") as err:
+        estimate_inertia(cut, fit.curve("forearm", "seated", 1), lag=0.0)
+    assert "\n" not in str(err.value)

@@ -421,11 +421,16 @@ def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sen
     without ``c_t``, 6 % with it). Returns ``(inertia, se, frame_mean, sensitivity,
     residuals, extra fields)``.
     """
-    start, stop = deceleration_window(time, velocity_f, alpha_f, source=source, speed_deg_s=None)
+    try:
+        start, stop = deceleration_window(time, velocity_f, alpha_f, source=source)
+    except InputError:
+        start, stop = 0, 0
     if start < win.stop_index:
         raise InputError(
-            f"{source}: no deceleration window after the acceleration window (ends at "
-            f"{win.end:.4g} s): a living body's damping needs the move's deceleration"
+            f"{source}: no uniform deceleration after the acceleration window (which ends at "
+            f"{win.end:.4g} s): a living body's fast trial is fitted for I and the damping b "
+            "over its acceleration and its deceleration, and this recording's speed does not "
+            "fall back to rest along a straight line (cut short?)"
         )
     rows = np.r_[win.start_index : win.stop_index, start:stop]
     design = np.column_stack([alpha_f[rows], velocity_f[rows], np.ones(rows.size)])
