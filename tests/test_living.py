@@ -18,6 +18,7 @@ from inertiafit.processing.living import (
     PassiveBasis,
     PostureGeometry,
     StaticRecord,
+    design_statics,
     fit_statics,
     living_tables,
 )
@@ -261,3 +262,32 @@ def test_a_living_fast_trial_cut_before_its_deceleration_is_one_line():
     with pytest.raises(InputError, match=r"^cut\.csv.*deceleration") as err:
         estimate_inertia(cut, fit.curve("forearm", "seated", 1), lag=0.0)
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("postures", "pinned"),
+    [(ONE, "passive prior"), (TWO, "a second posture"), (HORIZONTAL, "the horizontal plane")],
+    ids=["one posture", "two postures", "horizontal plane"],
+)
+def test_the_design_predicts_the_fitted_standard_error(postures, pinned):
+    # the planner's prediction (no data) against the SEs and the errors of 20 fitted studies
+    # of that design: within 15 % (the SE of an SD over 20 studies is 16 %; the SEs agree
+    # far better), and the same verdict on what decides M_g
+    rng = np.random.default_rng(11)
+    ses, errors, rigid = [], [], []
+    for _ in range(20):
+        fit = fit_statics(_study(rng, postures, _truth(rng)), postures, BASIS)
+        ses.append(fit.gravity_fit("forearm").gravity_moment_se)
+        errors.append(fit.gravity_fit("forearm").gravity_moment - GRAVITY_MOMENT)
+        theta = np.linspace(0.0, math.pi / 2, 6000)
+        torque = GRAVITY_MOMENT * np.sin(theta + PHI) + rng.normal(0.0, 0.05, theta.size)
+        coef, cov, _, _ = fit_gravity_arrays(theta, torque)
+        g_m = np.array([coef[0], coef[1], 0.0]) / math.hypot(coef[0], coef[1])
+        rigid.append(math.sqrt(g_m @ cov @ g_m))
+    design = design_statics(
+        GRAVITY_MOMENT, list(postures.values()), BASIS, rigid_se=float(np.mean(rigid)), phase=PHI
+    )
+    predicted = design.gravity_fit("living").gravity_moment_se
+    assert predicted == pytest.approx(math.sqrt(np.mean(np.square(ses))), rel=0.15)
+    assert predicted == pytest.approx(np.std(errors), rel=0.35)
+    assert design.pinned_by("living").startswith(pinned)

@@ -142,6 +142,8 @@ __all__ = [
     "TrialSpec",
     "file_sha256",
     "load_study",
+    "read_passive",
+    "read_postures",
     "read_trial_spec",
 ]
 
@@ -943,6 +945,20 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
             name=name, prior=prior, ideal=ideal, measured=measured, living=living
         )
     return bodies
+
+
+def read_passive(value: object, *, living: str, where: str) -> PassivePrior | None:
+    """A ``[passive]`` table read as the manifest reads it (the planner's design files too).
+
+    ``living`` names the living body (``""``: none, and the table must then be absent);
+    ``where`` starts every error message.
+    """
+    return _passive(value, living=living, where=where)
+
+
+def read_postures(value: object, *, where: str) -> dict[str, Posture]:
+    """``[postures.<name>]`` tables read as the manifest reads them (design files too)."""
+    return _postures(value, where=where)
 
 
 def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:

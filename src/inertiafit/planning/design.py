@@ -77,6 +77,19 @@ class Design:
         Bodies whose centre of mass is found on a balance, with its SD (m).
     torque_gain_sd : float
         Relative SD of the torque gain carried in the posterior (0: none).
+    living : str
+        The living body (``""``: none). Its conditions' gravity moment comes from the joint
+        fit of gravity and the passive curve (:func:`~inertiafit.processing.living.
+        design_statics`): ``quasi_static_trials`` sweeps (alternating up and down) and
+        ``rest_trials`` quiet holds in each of ``postures``. It can be neither weighed,
+        balanced nor moved along the lever.
+    passive : PassivePrior or None
+        The living joint's ``[passive]`` prior (:func:`inertiafit.io.manifest.read_passive`).
+    postures : tuple of PostureGeometry
+        The postures the living conditions are measured in (the first the reference);
+        default one posture.
+    rest_trials : int
+        Quiet holds per posture of each living condition.
     """
 
     name: str
@@ -88,9 +101,14 @@ class Design:
     weighed: Mapping[str, float] = field(default_factory=dict)
     balanced: Mapping[str, float] = field(default_factory=dict)
     torque_gain_sd: float = 0.0
+    living: str = ""
+    passive: Any = None
+    postures: tuple[Any, ...] = ()
+    rest_trials: int = 0
 
     def __post_init__(self):
         where = f"design '{self.name}'"
+        self._check_living(where)
         if not self.mountings:
             raise InputError(f"{where}: conditions: expected at least one condition")
         n = self.trials_per_speed
@@ -114,11 +132,51 @@ class Design:
             for body, sd in table.items():
                 check_positive(sd, f"{where}: {key}.{body}", unit)
 
+    def _check_living(self, where: str) -> None:
+        body = self.living
+        if not body:
+            if self.passive is not None or self.postures or self.rest_trials:
+                raise InputError(
+                    f"{where}: passive, postures and rest_trials are for a living body; mark "
+                    "it with living = true"
+                )
+            return
+        if not any(body in m.bodies for m in self.mountings):
+            raise InputError(f"{where}: living body '{body}' is in no condition")
+        if self.passive is None:
+            raise InputError(f"{where}: living body '{body}' needs the [passive] table")
+        if body in self.weighed or body in self.balanced:
+            raise InputError(
+                f"{where}: '{body}' is living: it cannot be weighed or balanced apart from the "
+                "subject"
+            )
+        if any(m.offset_body == body for m in self.mountings):
+            raise InputError(
+                f"{where}: '{body}' is living: it cannot be moved along the lever (remounted)"
+            )
+        if not is_whole(self.rest_trials) or self.rest_trials < 0:
+            raise InputError(
+                f"{where}: rest_trials: expected a whole number >= 0, got {self.rest_trials!r}"
+            )
+
+    def holds_living(self, mounting: Mounting) -> bool:
+        """Whether ``mounting`` holds the living body."""
+        return bool(self.living) and self.living in mounting.bodies
+
     @property
     def n_trials(self) -> int:
-        """Dynamometer trials of the session: fast and quasi-static, every condition."""
+        """Dynamometer trials of the session: fast and quasi-static (and rest), every condition.
+
+        A condition that holds the living body is measured in each posture.
+        """
         per = self.trials_per_speed * len(self.speeds) + self.quasi_static_trials
-        return per * len(self.mountings)
+        total = 0
+        for m in self.mountings:
+            if self.holds_living(m):
+                total += (per + self.rest_trials) * max(len(self.postures), 1)
+            else:
+                total += per
+        return total
 
     @property
     def measured(self) -> dict[str, dict[str, float]]:
@@ -264,10 +322,16 @@ def design_variants(
     for n in trials_per_speed:
         out.append(replace(base, name=f"{base.name}, {n} per speed", trials_per_speed=int(n)))
     for body, sd in weigh.items():
+        if body == base.living:
+            raise InputError(
+                f"weigh: '{body}' is living: it cannot be weighed apart from the subject"
+            )
         out.append(
             replace(base, name=f"{base.name}, {body} weighed", weighed={**base.weighed, body: sd})
         )
     for body, ds in offsets.items():
+        if body == base.living:
+            raise InputError(f"offsets: '{body}' is living: it cannot be remounted")
         holding = [m for m in base.mountings if body in m.bodies and not m.offset_body]
         if not holding:
             raise InputError(f"offsets: body '{body}' is in no condition of '{base.name}'")

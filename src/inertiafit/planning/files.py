@@ -13,6 +13,7 @@ import json
 import math
 import tomllib
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -22,17 +23,20 @@ import pandas as pd
 from inertiafit._checks import check_number, check_positive, check_probability
 from inertiafit.errors import InputError
 from inertiafit.inference.priors import load_prior, priors_from_posterior
+from inertiafit.io.manifest import read_passive, read_postures
 from inertiafit.mounting import Mounting
 from inertiafit.physics import PARAMETERS
 from inertiafit.planning.design import ConditionNoise, Design, NoiseLevels
+from inertiafit.processing.living import PostureGeometry, posture_geometry
 
 __all__ = ["load_plan_file", "pilot_inputs"]
 
 _FILE_KEYS = {"name", "gravity", "hdi_prob", "bodies", "noise", "targets", "defaults", "designs",
-              "max_trials_per_speed", "seed"}  # fmt: skip
+              "max_trials_per_speed", "seed", "passive", "postures"}  # fmt: skip
 _DESIGN_KEYS = {"name", "conditions", "trials_per_speed", "speeds", "quasi_static_trials",
-                "priors", "weigh", "balance", "torque_gain_sd"}  # fmt: skip
-_BODY_KEYS = {*PARAMETERS, "prior"}
+                "priors", "weigh", "balance", "torque_gain_sd", "postures",
+                "rest_trials"}  # fmt: skip
+_BODY_KEYS = {*PARAMETERS, "prior", "living"}
 _NOISE_KEYS = {"inertia_sd", "inertia_relative_sd", "gravity_moment_se"}
 
 
@@ -86,7 +90,67 @@ def _mounting(where: str, *args: Any) -> Mounting:
         raise InputError(f"{where}: {exc}") from None
 
 
-def _design(spec: Mapping[str, Any], defaults: Mapping[str, Any], where: str) -> Design:
+@dataclass(frozen=True)
+class _Living:
+    """A design file's living body, its ``[passive]`` prior and its ``[postures]``."""
+
+    body: str = ""
+    passive: Any = None
+    postures: Mapping[str, PostureGeometry] = field(default_factory=dict)
+
+    def design_kwargs(self, table: Mapping[str, Any], where: str) -> dict[str, Any]:
+        if not self.body:
+            for key in ("postures", "rest_trials"):
+                if key in table:
+                    raise InputError(f"{where}.{key}: for a living body (living = true)")
+            return {}
+        names = table.get("postures", list(self.postures)[:1])
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise InputError(f"{where}.postures: expected a list of posture names")
+        unknown = [n for n in names if n not in self.postures]
+        if unknown:
+            raise InputError(
+                f"{where}.postures: unknown posture '{unknown[0]}' (defined: "
+                f"{', '.join(self.postures) or 'none; add [postures.<name>] tables'})"
+            )
+        out: dict[str, Any] = {
+            "living": self.body,
+            "passive": self.passive,
+            "postures": tuple(self.postures[n] for n in names),
+        }
+        if "rest_trials" in table:
+            v = table["rest_trials"]
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise InputError(f"{where}.rest_trials: expected a whole number, got {v!r}")
+            out["rest_trials"] = v
+        return out
+
+
+def _living(doc: Mapping[str, Any], bodies: Mapping[str, Any]) -> _Living:
+    """The design file's living body (``living = true``, at most one) and its joint."""
+    living = []
+    for name, spec in bodies.items():
+        flag = spec.get("living", False) if isinstance(spec, Mapping) else False
+        if not isinstance(flag, bool):
+            raise InputError(f"bodies.{name}.living: expected true or false, got {flag!r}")
+        if flag:
+            living.append(name)
+    if len(living) > 1:
+        raise InputError(
+            f"bodies: {' and '.join(living)} are both living; one living body per study"
+        )
+    body = living[0] if living else ""
+    passive = read_passive(doc.get("passive"), living=body, where="design file")
+    postures = {
+        n: posture_geometry(p)
+        for n, p in read_postures(doc.get("postures", {}), where="design file").items()
+    }
+    return _Living(body, passive, postures)
+
+
+def _design(
+    spec: Mapping[str, Any], defaults: Mapping[str, Any], where: str, living: _Living
+) -> Design:
     table = {**defaults, **_table(spec, where, _DESIGN_KEYS)}
     if "conditions" not in table:
         raise InputError(f"{where}: conditions: missing (here or in [defaults])")
@@ -116,6 +180,7 @@ def _design(spec: Mapping[str, Any], defaults: Mapping[str, Any], where: str) ->
                 b: check_positive(sd, f"{where}.{key}.{b}")
                 for b, sd in _table(table[key], f"{where}.{key}").items()
             }
+    kwargs.update(living.design_kwargs(table, where))
     return Design(**kwargs)
 
 
@@ -154,6 +219,7 @@ def _plan_kwargs(doc: Mapping[str, Any], path: Path) -> dict[str, Any]:
         if missing:
             raise InputError(f"bodies.{name}.{missing[0]}: missing (nominal value in SI units)")
         nominal[name] = {p: t[p] for p in PARAMETERS}
+        t.pop("living", None)
         if "prior" in t:
             prior = t["prior"]
             if (
@@ -173,7 +239,8 @@ def _plan_kwargs(doc: Mapping[str, Any], path: Path) -> dict[str, Any]:
     specs = doc.get("designs")
     if not isinstance(specs, list) or not specs:
         raise InputError("designs: expected at least one [[designs]] table")
-    designs = [_design(s, defaults, f"designs[{i}]") for i, s in enumerate(specs)]
+    living = _living(doc, bodies)
+    designs = [_design(s, defaults, f"designs[{i}]", living) for i, s in enumerate(specs)]
     out: dict[str, Any] = {
         "bodies": nominal,
         "designs": designs,

@@ -32,6 +32,7 @@ from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED
 from inertiafit.planning.design import Design, NoiseLevels, is_whole, nominal_values
+from inertiafit.processing.living import PostureGeometry, design_statics, passive_basis
 
 __all__ = [
     "PLAN_COLUMNS",
@@ -74,6 +75,25 @@ def reported_values(
     }
 
 
+def _living_gravity_se(design: Design, moment: float, rigid_se: float) -> float:
+    """A living condition's ``M_g`` SE, predicted without data.
+
+    The joint fit of gravity and the passive curve that the design's sweeps, rest trials and
+    postures would give (:func:`~inertiafit.processing.living.design_statics`; the gravity
+    phase taken as 0), at the noise that gives one rigid sweep the SE ``rigid_se``.
+    """
+    postures = design.postures or (PostureGeometry("reference"),)
+    statics = design_statics(
+        moment,
+        postures,
+        passive_basis(design.passive),
+        rigid_se=rigid_se,
+        sweeps=design.quasi_static_trials,
+        rest_trials=design.rest_trials,
+    )
+    return statics.gravity_fit("living").gravity_moment_se
+
+
 def design_model(
     bodies: Mapping[str, Mapping[str, float]],
     design: Design,
@@ -99,7 +119,10 @@ def design_model(
         n = design.trials_per_speed * len(design.speeds)
         sd = noise.trial_sd(mount, total_b, design.speeds)
         obs_i = Observation(total_b, sd / math.sqrt(n), n - 1.0, n)
-        se = noise.gravity_se(mount) / math.sqrt(design.quasi_static_trials)
+        if design.holds_living(mount):
+            se = _living_gravity_se(design, moment, noise.gravity_se(mount))
+        else:
+            se = noise.gravity_se(mount) / math.sqrt(design.quasi_static_trials)
         obs_g = Observation.from_mean_se(moment, se, where=f"{mount.label} M_g")
         pilot = noise.pilot(mount)
         coupling = 0.0

@@ -57,6 +57,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
+from inertiafit.io.manifest import PassivePrior, Posture
 from inertiafit.passive import literature_curve
 from inertiafit.processing.gravity import (
     GravityFit,
@@ -75,9 +76,12 @@ __all__ = [
     "PostureGeometry",
     "StaticCurve",
     "StaticRecord",
+    "design_statics",
     "fit_statics",
     "living_tables",
     "living_tables_from_dict",
+    "passive_basis",
+    "posture_geometry",
 ]
 
 #: A trial's samples are averaged in consecutive blocks, at most this many per trial (the
@@ -362,7 +366,11 @@ class LivingStatics:
             gravity_phase_se=math.sqrt(float(g_p @ cov @ g_p)),
             offset=c,
             offset_se=c_se,
-            residual_rms=float(np.sqrt(np.mean(np.square(list(self.residual_rms.values()))))),
+            residual_rms=(
+                float(np.sqrt(np.mean(np.square(list(self.residual_rms.values())))))
+                if self.residual_rms
+                else math.nan
+            ),
             n=0,
             n_effective=math.nan,
             angle_range=self.angle_range[1] - self.angle_range[0],
@@ -484,6 +492,126 @@ def _columns(
     return out
 
 
+def passive_basis(prior: PassivePrior) -> PassiveBasis:
+    """The passive curve's columns and priors from a ``[passive]`` table (angles to rad)."""
+    return PassiveBasis(
+        joint=prior.joint,
+        zero=math.radians(prior.joint_angle_at_zero),
+        stiffness=prior.stiffness,
+        stop_moment=prior.stop_moment,
+        width=math.radians(prior.stop_width),
+        range_low=math.radians(prior.range[0]),
+        range_high=math.radians(prior.range[1]),
+        hysteresis=prior.hysteresis,
+        curve_scale=prior.curve_scale,
+        damping=prior.damping,
+    )
+
+
+def posture_geometry(posture: Posture) -> PostureGeometry:
+    """A ``[postures.<name>]`` table's gravity in radians."""
+    return PostureGeometry(
+        posture.name,
+        math.radians(posture.gravity_rotation),
+        math.radians(posture.gravity_rotation_sd),
+        math.radians(posture.axis_tilt),
+    )
+
+
+def _layout(
+    conditions: Sequence[str], pairs: Sequence[str], used: Sequence[str], basis: PassiveBasis
+) -> tuple[tuple[str, ...], NDArray, NDArray]:
+    """The coefficients' names, prior means and prior precisions (0: flat)."""
+    names = (
+        *[f"{k}:{c}" for c in conditions for k in ("A", "B")],
+        *[f"C:{pc}" for pc in pairs],
+        "hysteresis",
+        *basis.names,
+        *[f"rotation:{p}" for p in used[1:]],
+    )
+    prior_mean = np.zeros(len(names))
+    prior_prec = np.zeros(len(names))
+    for name, (mean, sd) in [
+        ("hysteresis", basis.hysteresis),
+        *zip(basis.names, basis.priors, strict=True),
+    ]:
+        prior_mean[names.index(name)] = mean
+        prior_prec[names.index(name)] = 1.0 / sd**2
+    return names, prior_mean, prior_prec
+
+
+def design_statics(
+    moment: float,
+    postures: Sequence[PostureGeometry],
+    basis: PassiveBasis,
+    *,
+    rigid_se: float,
+    sweeps: int = 2,
+    rest_trials: int = 0,
+    sweep: tuple[float, float] = (0.0, math.pi / 2),
+    sweep_seconds: float = 90.0,
+    rest_seconds: float = 5.0,
+    phase: float = 0.0,
+    condition: str = "living",
+) -> LivingStatics:
+    """The joint fit a design *would* give, before it is measured (for the planner).
+
+    The fit is linear-Gaussian in its coefficients, so its covariance does not depend on the
+    data's values: it is computed here from the design alone — ``sweeps`` quasi-static sweeps
+    per posture over ``sweep`` (rad, alternating up and down), ``rest_trials`` quiet holds per
+    posture spread over the sweep, at the noise that gives one rigid sweep's ``M_g`` the SE
+    ``rigid_se`` (N m; ``NoiseLevels.gravity_se``), for a condition of gravity moment
+    ``moment`` (N m) and ``phase`` (rad). The rotations enter at their priors' SDs.
+
+    Returns
+    -------
+    LivingStatics
+        At the nominal values; its :meth:`~LivingStatics.gravity_fit`,
+        :meth:`~LivingStatics.pinned_by` and :meth:`~LivingStatics.prior_leverage` are the
+        design's predictions.
+    """
+    blocks = 400
+    theta = np.linspace(sweep[0], sweep[1], blocks)
+    # the noise: a rigid sweep's M_g variance over the same blocks fixes the per-block variance
+    rigid = np.column_stack([np.sin(theta + phase), np.cos(theta + phase), np.ones(blocks)])
+    g_m = np.array([1.0, 0.0, 0.0])  # d M_g along the phase direction
+    per_block = rigid_se**2 / float(g_m @ np.linalg.inv(rigid.T @ rigid) @ g_m)
+    per_second = per_block * sweep_seconds / blocks  # variance x seconds: a mean over T has /T
+    order = [p.name for p in postures]
+    pairs = [f"{condition}:{p}" for p in order]
+    names, _, prior_prec = _layout((condition,), pairs, order, basis)
+    coef = np.zeros(len(names))
+    coef[names.index(f"A:{condition}")] = moment * math.cos(phase)
+    coef[names.index(f"B:{condition}")] = moment * math.sin(phase)
+    precision = np.diag(prior_prec)
+    ref = postures[0]
+    for posture in postures[1:]:
+        i = names.index(f"rotation:{posture.name}")
+        sd = math.hypot(ref.rotation_sd, posture.rotation_sd)
+        precision[i, i] = 1.0 / sd**2 if math.isfinite(sd) else 0.0
+    holds = theta[np.linspace(0, blocks - 1, rest_trials + 2).astype(int)[1:-1]]
+    for posture in postures:
+        for k in range(sweeps):
+            direction = 1 if k % 2 == 0 else -1
+            cols = _columns(names, theta, condition, posture, direction, basis, coef)
+            x = np.column_stack([np.broadcast_to(c, theta.shape) for c in cols])
+            precision += (x.T @ x) / per_block
+        if rest_trials:
+            cols = _columns(names, holds, condition, posture, 0, basis, coef)
+            x = np.column_stack([np.broadcast_to(c, holds.shape) for c in cols])
+            precision += (x.T @ x) / (per_second / rest_seconds)
+    return LivingStatics(
+        names=names,
+        coefficients=coef,
+        covariance=np.linalg.inv(precision),
+        precision=precision,
+        postures={p.name: p for p in postures},
+        basis=basis,
+        conditions=(condition,),
+        angle_range=(float(sweep[0]), float(sweep[1])),
+    )
+
+
 def fit_statics(
     records: Sequence[StaticRecord],
     postures: Mapping[str, PostureGeometry],
@@ -519,13 +647,7 @@ def fit_statics(
     order = list(postures)
     used = [p for p in order if any(r.posture == p for r in records)]
     reference = used[0]
-    names = (
-        *[f"{k}:{c}" for c in conditions for k in ("A", "B")],
-        *[f"C:{pc}" for pc in pairs],
-        "hysteresis",
-        *basis.names,
-        *[f"rotation:{p}" for p in used[1:]],
-    )
+    names, prior_mean, prior_prec = _layout(conditions, pairs, used, basis)
     for c in conditions:
         if not any(
             r.condition == c
@@ -538,14 +660,6 @@ def fit_statics(
                 "(axis_tilt < 90 deg); M_g cannot be measured"
             )
     n_coef = len(names)
-    prior_mean = np.zeros(n_coef)
-    prior_prec = np.zeros(n_coef)
-    for name, (mean, sd) in [
-        ("hysteresis", basis.hysteresis),
-        *zip(basis.names, basis.priors, strict=True),
-    ]:
-        prior_mean[names.index(name)] = mean
-        prior_prec[names.index(name)] = 1.0 / sd**2
     ref = postures[reference]
     geometry = {p: postures[p] for p in order}
     shift = dict.fromkeys(used[1:], 0.0)  # the rotation fitted, beyond its nominal value

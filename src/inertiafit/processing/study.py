@@ -32,11 +32,12 @@ from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import lag_consistency_flags
 from inertiafit.processing.living import (
     LivingStatics,
-    PassiveBasis,
     PostureGeometry,
     StaticCurve,
     StaticRecord,
     fit_statics,
+    passive_basis,
+    posture_geometry,
 )
 from inertiafit.processing.plausibility import fast_trial_flags
 from inertiafit.stats import inverse_variance_mean
@@ -393,7 +394,7 @@ def process_study(
         say("fitting gravity and the passive curve of the living body together")
         assert study.passive is not None
         statics = fit_statics(
-            records, postures, passive_basis(study), where=f"{study.path}: [passive]"
+            records, postures, passive_basis(study.passive), where=f"{study.path}: [passive]"
         )
         if len(statics.conditions) > 1:
             notes.append(
@@ -514,33 +515,7 @@ def _posture_geometry(study: Study) -> dict[str, PostureGeometry]:
     """The manifest's postures in radians (one posture ``""`` when it names none)."""
     if not study.postures:
         return {"": PostureGeometry("")}
-    return {
-        name: PostureGeometry(
-            name,
-            math.radians(p.gravity_rotation),
-            math.radians(p.gravity_rotation_sd),
-            math.radians(p.axis_tilt),
-        )
-        for name, p in study.postures.items()
-    }
-
-
-def passive_basis(study: Study) -> PassiveBasis:
-    """The passive curve's columns and priors from the manifest's ``[passive]`` (radians)."""
-    prior = study.passive
-    assert prior is not None
-    return PassiveBasis(
-        joint=prior.joint,
-        zero=math.radians(prior.joint_angle_at_zero),
-        stiffness=prior.stiffness,
-        stop_moment=prior.stop_moment,
-        width=math.radians(prior.stop_width),
-        range_low=math.radians(prior.range[0]),
-        range_high=math.radians(prior.range[1]),
-        hysteresis=prior.hysteresis,
-        curve_scale=prior.curve_scale,
-        damping=prior.damping,
-    )
+    return {name: posture_geometry(p) for name, p in study.postures.items()}
 
 
 def _record(spec: TrialSpec, ds: xr.Dataset) -> StaticRecord:
