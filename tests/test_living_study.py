@@ -61,6 +61,21 @@ def test_run_writes_the_living_joint(living_run):
     assert (trials["kind"] == "rest").sum() == 6
     qs = trials[(trials["condition"] != "attachment") & (trials["kind"] == "quasi-static")]
     assert qs["flags"].str.contains(LIVING_ROW_FLAG, regex=False).all()
+    summary = pd.read_csv(out / "summary.csv").set_index(["body", "parameter"])
+    assert (
+        summary.loc[("forearm", "damping"), "ess_bulk"]
+        != summary.loc[("forearm", "damping"), "ess_bulk"]
+    )  # NaN: not sampled
+    assert (
+        summary.loc[("forearm", "stiffness"), "hdi_lower"]
+        < summary.loc[("forearm", "stiffness"), "hdi_upper"]
+    )
+    ident = pd.read_csv(out / "identification.csv").set_index(["body", "parameter"])
+    assert (
+        "living: M_g told from the passive curve by a second posture"
+        in ident.loc[("forearm", "gravity_moment"), "pinned_by"]
+    )
+    assert "living" not in ident.loc[("attachment", "gravity_moment"), "pinned_by"]
     page = (out / "report.html").read_text()
     assert "Living joint" in page
     assert "decided by" in page
@@ -94,10 +109,10 @@ def test_rigid_study_has_no_living_outputs(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("design", ["one", "two"])
 def test_small_seeded_coverage_of_the_living_forearm(design):
-    # Three studies of the benchmark: the living posterior's median within 3.5 posterior
+    # Two studies of the benchmark: the living posterior's median within 3.5 posterior
     # SDs (the HDI width / 3.92) of the truth in every one, for I and M_g; the rigid model on
     # the same files puts M_g more than 10 % high in the median (the bias).
-    results = [living_coverage.one_study(design, seed) for seed in (101, 102, 103)]
+    results = [living_coverage.one_study(design, seed) for seed in (101, 102)]
     for r in results:
         for q in ("I", "M_g"):
             sd = r[f"living {q} width"] / (2 * 1.96)

@@ -187,7 +187,9 @@ def analyse_study(
         "trials": trials.to_dict(orient="list"),
     }
     living = (
-        living_tables(processed.living, processed.damping) if processed.living is not None else {}
+        living_tables(processed.living, processed.damping, body=study.living_body)
+        if processed.living is not None
+        else {}
     )
     if living:  # kept in posterior.nc, for `inertiafit report`
         inputs["living"] = {k: v.to_dict(orient="list") for k, v in living.items()}

@@ -757,6 +757,7 @@ _UNITS = {
 
 #: Columns of ``passive_parameters.csv`` and the first of ``passive.csv``, in order.
 PARAMETER_COLUMNS = (
+    "body",
     "parameter",
     "unit",
     "mean",
@@ -795,7 +796,7 @@ def living_tables_from_dict(stored: Mapping[str, Mapping[str, list]]) -> dict[st
 
 
 def living_tables(
-    statics: LivingStatics, damping: tuple[float, float] | None
+    statics: LivingStatics, damping: tuple[float, float] | None, *, body: str = ""
 ) -> dict[str, pd.DataFrame]:
     """The living joint's outputs: ``passive_parameters`` and ``passive_curve``.
 
@@ -805,7 +806,8 @@ def living_tables(
     how much its SE grows when the passive prior's SDs double
     (:meth:`LivingStatics.prior_leverage`) — columns ``parameter``, ``unit``, ``mean``,
     ``sd``, ``lower``, ``upper`` (95 %), ``prior_mean``, ``prior_sd``, ``pinned_by``,
-    ``prior_leverage``. ``passive_curve``: :meth:`LivingStatics.passive_curve`.
+    ``prior_leverage``, and ``body``, the living body. ``passive_curve``:
+    :meth:`LivingStatics.passive_curve`.
     """
     rows = []
 
@@ -822,6 +824,7 @@ def living_tables(
                 "prior_sd": prior[1],
                 "pinned_by": pinned,
                 "prior_leverage": leverage,
+                "body": body,
             }
         )
 
@@ -844,4 +847,7 @@ def living_tables(
             pinned=statics.pinned_by(cond),
             leverage=statics.prior_leverage(cond),
         )
-    return {"passive_parameters": pd.DataFrame(rows), "passive_curve": statics.passive_curve()}
+    return {
+        "passive_parameters": pd.DataFrame(rows, columns=list(PARAMETER_COLUMNS)),
+        "passive_curve": statics.passive_curve(),
+    }

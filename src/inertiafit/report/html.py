@@ -257,7 +257,7 @@ def study_report(
             else "NOT converged: treat the intervals with care."
         )
     )
-    summary = post.summary(hdi_prob)
+    summary = result.summary(hdi_prob)
     skipped = skipped_trials(result.trials)
     sections: list[tuple[str, list]] = []
     if len(skipped):
@@ -301,7 +301,7 @@ def study_report(
                     "'psense prior' is blank for a box)."
                 ),
                 *post.what_pins_what().values(),
-                identification_display(post.identification()),
+                identification_display(result.identification()),
                 "Posterior correlations of m, x and rho:",
                 correlation_display(post.correlations()),
             ],
@@ -376,7 +376,7 @@ def study_report(
             "Diagnostics",
             [
                 diag,
-                post.identification(),
+                result.identification(),
                 *figs("Diagnostics"),
                 *(["warn:" + w for w in result.warnings] or ["No trial flags."]),
             ],

@@ -125,8 +125,7 @@ def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
     A living body adds ``passive_parameters`` (CSV, .md, .tex) and ``passive.csv`` (the
     passive elastic moment on an angle grid, median and 95 % band).
     """
-    post = result.posterior
-    summary = post.summary(hdi_prob)
+    summary = result.summary(hdi_prob)
     write_table(
         summary,
         folder,
@@ -135,7 +134,7 @@ def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
         caption=f"Posterior of every body: median and {100 * hdi_prob:g}% HDI.",
     )
     write_table(
-        post.identification(),
+        result.identification(),
         folder,
         "identification",
         caption="Posterior SD over prior SD: who decides each parameter.",

@@ -80,6 +80,60 @@ class Result:
     manifest: str
     living: dict[str, pd.DataFrame] = field(default_factory=dict)
 
+    def summary(self, hdi_prob: float | None = None) -> pd.DataFrame:
+        """The posterior's summary; a living body's joint parameters as rows of that body.
+
+        The joint's parameters (stiffness, stops, hysteresis, damping, posture rotations)
+        were integrated out or fitted beside the posterior (their posterior is Gaussian):
+        ``mean`` and ``median`` are its mean, the HDI its central interval at ``hdi_prob``;
+        ``ess_*`` and ``r_hat`` are blank (not sampled).
+        """
+        prob = self.hdi_prob if hdi_prob is None else hdi_prob
+        table = self.posterior.summary(prob)
+        if not self.living:
+            return table
+        from scipy import stats
+
+        joint = self.living["passive_parameters"]
+        joint = joint[~joint["parameter"].str.startswith("gravity_moment:")]
+        z = float(stats.norm.ppf(0.5 + prob / 2))
+        rows = pd.DataFrame(
+            {
+                "body": joint["body"],
+                "parameter": joint["parameter"],
+                "mean": joint["mean"],
+                "sd": joint["sd"],
+                "median": joint["mean"],
+                "hdi_lower": joint["mean"] - z * joint["sd"],
+                "hdi_upper": joint["mean"] + z * joint["sd"],
+                "hdi_prob": prob,
+            }
+        )
+        return pd.concat([table, rows], ignore_index=True)
+
+    def identification(self) -> pd.DataFrame:
+        """The posterior's identification table; for a living body, what decided its ``M_g``.
+
+        The living body's ``gravity_moment`` row's ``pinned_by`` adds what told the gravity
+        moment of its condition apart from the passive curve (``passive_parameters``'
+        ``pinned_by``: the passive prior, a second posture, the horizontal plane).
+        """
+        table = self.posterior.identification()
+        if not self.living:
+            return table
+        joint = self.living["passive_parameters"]
+        said = joint[joint["parameter"].str.startswith("gravity_moment:")]
+        if not len(said):
+            return table
+        body = str(said["body"].iloc[0])
+        separated = "; ".join(dict.fromkeys(str(v) for v in said["pinned_by"]))
+        rows = (table["body"] == body) & (table["parameter"] == "gravity_moment")
+        table.loc[rows, "pinned_by"] = (
+            table.loc[rows, "pinned_by"].astype(str)
+            + f" (living: M_g told from the passive curve by {separated})"
+        )
+        return table
+
     @property
     def from_numbers(self) -> bool:
         """Whether this is one body fitted from reported numbers (no trial files)."""

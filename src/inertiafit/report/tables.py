@@ -135,7 +135,9 @@ def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(
         {
             "body": summary["body"],
-            "parameter": [f"{p} [{UNITS[p]}]" for p in summary["parameter"]],
+            "parameter": [
+                f"{p} [{UNITS[p]}]" if p in UNITS else str(p) for p in summary["parameter"]
+            ],
             f"median [{100 * prob:g}% HDI]": [
                 _interval(m, lo, hi)
                 for m, lo, hi in zip(
@@ -146,7 +148,11 @@ def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
                 mean_sd(m, s) for m, s in zip(summary["mean"], summary["sd"], strict=True)
             ],
             "R-hat": summary["r_hat"].round(3),
-            "ESS bulk": summary["ess_bulk"].round(0).astype(int),
+            "ESS bulk": summary["ess_bulk"]
+            .round(0)
+            .astype(
+                "Int64" if summary["ess_bulk"].isna().any() else int  # a living joint's: none
+            ),
         }
     )
 
