@@ -119,3 +119,16 @@ def test_small_seeded_coverage_of_the_living_forearm(design):
             assert abs(r[f"living {q} error"]) < 3.5 * sd, (q, r)
     assert np.median([r["rigid M_g error"] for r in results]) > 0.10
     assert all(math.isfinite(r["damping_z"]) for r in results)
+
+
+def test_passive_curve_figure_draws_the_band_and_each_gravity_curve(living_run):
+    from inertiafit.report.plots import plot_passive_curve
+
+    _, out = living_run
+    curve = pd.read_csv(out / "passive.csv")
+    fig = plot_passive_curve(curve)
+    (ax,) = fig.axes
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert "passive elastic moment" in labels
+    assert "gravity moment, attachment+forearm" in labels
+    assert len(ax.collections) == 2  # the prior's band and the posterior's

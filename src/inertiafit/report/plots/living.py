@@ -65,6 +65,6 @@ def plot_passive_curve(
             )
         ax.axhline(0.0, color="0.6", lw=0.5)
         ax.set_xlabel("joint angle [deg]")
-        ax.set_ylabel("moment about the middle of the range [N m]")
+        ax.set_ylabel("moment, 0 at mid-range [N m]")
         ax.legend(loc="best", fontsize="small", frameon=False)
     return fig
