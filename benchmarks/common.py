@@ -6,6 +6,7 @@ its targets) and a ``main()`` so it runs alone; ``benchmarks/run.py`` runs them 
 
 from __future__ import annotations
 
+import math
 import os
 import platform
 import sys
@@ -158,3 +159,13 @@ def standalone(
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(result, fh, indent=2)
+
+
+def hdi(draws, prob: float = 0.95) -> tuple[float, float]:
+    """The shortest interval holding ``prob`` of the draws (their highest-density interval)."""
+    import numpy as np
+
+    x = np.sort(np.ravel(draws))
+    k = math.floor(prob * x.size)
+    i = int(np.argmin(x[k:] - x[: x.size - k]))
+    return float(x[i]), float(x[i + k])

@@ -42,7 +42,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from common import standalone, table
+from common import hdi, standalone, table
 
 #: The levels: target relative SD of the attachment's per-trial inertia.
 LEVELS = {"0.3%": 0.003, "1%": 0.01, "3%": 0.03, "8%": 0.08}
@@ -59,15 +59,6 @@ HDI = 0.95
 def _box_draw(rng, nominal):
     """A truth uniform in the ±50 % box around ``nominal`` (mass, rho, x)."""
     return tuple(v * rng.uniform(0.5, 1.5) for v in nominal)
-
-
-def _hdi(draws: np.ndarray, prob: float = HDI) -> tuple[float, float]:
-    x = np.sort(np.ravel(draws))
-    n = len(x)
-    k = math.floor(prob * n)
-    widths = x[k:] - x[: n - k]
-    i = int(np.argmin(widths))
-    return float(x[i]), float(x[i + k])
 
 
 def level_noise(fraction: float, inertia: float) -> dict[str, float]:
@@ -169,9 +160,9 @@ def one_study(level: str, seed: int) -> dict:
     q_post, q_plain, q_gravity = quantities(post), quantities(plain_post), quantities(no_gain_post)
     rows = {}
     for name, draws in q_post.items():
-        lo, hi = _hdi(draws)
-        plo, phi_ = _hdi(q_plain[name])
-        glo, ghi = _hdi(q_gravity[name])
+        lo, hi = hdi(draws, HDI)
+        plo, phi_ = hdi(q_plain[name], HDI)
+        glo, ghi = hdi(q_gravity[name], HDI)
         rows[name] = {
             "inside": lo <= true_q[name] <= hi,
             "plain_inside": plo <= true_q[name] <= phi_,

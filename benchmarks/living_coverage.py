@@ -25,7 +25,6 @@ Run:  .venv/bin/python benchmarks/living_coverage.py [--quick] [--studies N] [--
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 import tempfile
@@ -36,18 +35,11 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from common import standalone, table
+from common import hdi, standalone, table
 
 HDI = 0.95
 DESIGNS = ("one", "two")
 NOMINAL = {"attachment": (2.91, 0.13, 0.225), "forearm": (1.5, 0.08, 0.15)}
-
-
-def _hdi(draws: np.ndarray, prob: float = HDI) -> tuple[float, float]:
-    x = np.sort(np.ravel(draws))
-    k = math.floor(prob * x.size)
-    i = int(np.argmin(x[k:] - x[: x.size - k]))
-    return float(x[i]), float(x[i + k])
 
 
 def _forearm(post) -> dict[str, np.ndarray]:
@@ -106,7 +98,7 @@ def one_study(design: str, seed: int) -> dict:
     true = {"I": float(inertia(m, rho, x)), "M_g": float(gravity_moment(m, x, 9.81))}
     for label, post in (("living", living), ("rigid", rigid)):
         for q, draws in _forearm(post).items():
-            lo, hi = _hdi(draws)
+            lo, hi = hdi(draws, HDI)
             out[f"{label} {q} inside"] = bool(lo <= true[q] <= hi)
             out[f"{label} {q} width"] = (hi - lo) / true[q]
             out[f"{label} {q} error"] = (float(np.median(draws)) - true[q]) / true[q]

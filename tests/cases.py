@@ -25,3 +25,27 @@ PRIORS = {
     "attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225},
     "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
 }
+
+#: The path of the first fast trial of :func:`one_condition_study`.
+ONE_CONDITION_FAST = "data/A_240_01.csv"
+
+
+def one_condition_study(folder):
+    """The attachment alone: a quasi-static trial (4 deg/s over 90 deg) and three fast trials
+    at 240 deg/s (ramp 0.2-0.35 s, constant speed 0.35-0.57 s); the plausibility checks' and
+    issue 22's catalogue's study. Returns ``folder``."""
+    from inertiafit.simulate import simulate_study
+
+    simulate_study(
+        folder,
+        bodies={"attachment": TRUTH["attachment"]},
+        conditions=[("attachment",)],
+        speeds=(240,),
+        trials_per_speed=3,
+        quasi_static_speed=4.0,
+        seed=7,
+        phi=0.2,
+        offset=1.5,
+        priors={"attachment": PRIORS["attachment"]},
+    )
+    return folder

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from cases import DISK_FIT
+from cases import DISK_FIT, ONE_CONDITION_FAST, one_condition_study
 from test_cli_arguments import _api_cases, assert_one_line, run_cli
 from test_outputs_safety import (
     DEMO_OUTPUTS,
@@ -41,11 +41,8 @@ from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.io import load_study, outputs, read_trial
 from inertiafit.io.outputs import check_out, output_folder, write_csv
 from inertiafit.processing.study import process_study
-from inertiafit.simulate import simulate_study
 
-TRUTH = {"attachment": (2.85, 0.12, 0.24)}
-PRIOR = {"attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225}}
-FAST = "data/A_240_01.csv"
+FAST = ONE_CONDITION_FAST
 DATA = Path(__file__).parent / "data"
 
 
@@ -54,21 +51,8 @@ DATA = Path(__file__).parent / "data"
 
 @pytest.fixture(scope="module")
 def base(tmp_path_factory):
-    """One condition: a quasi-static trial (4 deg/s, 90 deg) and three fast trials at 240 deg/s."""
-    folder = tmp_path_factory.mktemp("issue22") / "study"
-    simulate_study(
-        folder,
-        bodies=TRUTH,
-        conditions=[("attachment",)],
-        speeds=(240,),
-        trials_per_speed=3,
-        quasi_static_speed=4.0,
-        seed=7,
-        phi=0.2,
-        offset=1.5,
-        priors=PRIOR,
-    )
-    return folder
+    """One condition (:func:`cases.one_condition_study`)."""
+    return one_condition_study(tmp_path_factory.mktemp("issue22") / "study")
 
 
 def copy_of(base: Path, tmp_path: Path, name: str = "study") -> Path:

@@ -15,6 +15,7 @@ import pytest
 
 from inertiafit.cli import main
 from inertiafit.pipeline.redraw import load_result
+from inertiafit.processing.living import CURVE_COLUMNS
 from inertiafit.processing.study import LIVING_ROW_FLAG, process_study
 from inertiafit.simulate import simulate_living_study
 
@@ -43,15 +44,7 @@ def test_run_writes_the_living_joint(living_run):
     assert abs(got["mean"] - rotation) < 4 * got["sd"]
     assert {"stiffness", "hysteresis", "damping"} <= set(params.index)
     curve = pd.read_csv(out / "passive.csv")
-    assert list(curve.columns[:7]) == [
-        "joint_angle",
-        "device_angle",
-        "median",
-        "lower",
-        "upper",
-        "prior_lower",
-        "prior_upper",
-    ]
+    assert list(curve.columns[: len(CURVE_COLUMNS)]) == list(CURVE_COLUMNS)
     assert (curve["upper"] - curve["lower"]).min() > 0
     assert (out / "passive-curve.png").is_file()
     trials = pd.read_csv(out / "trials.csv")

@@ -6,34 +6,18 @@ import shutil
 
 import pandas as pd
 import pytest
+from cases import ONE_CONDITION_FAST, one_condition_study
 
 from inertiafit.errors import InputError
 from inertiafit.processing.study import process_study
-from inertiafit.simulate import simulate_study
 
-TRUTH = {"attachment": (2.85, 0.12, 0.24)}
-PRIOR = {"attachment": {"mass": 2.91, "radius_of_gyration": 0.130, "com_distance": 0.225}}
-FAST = "data/A_240_01.csv"
+FAST = ONE_CONDITION_FAST
 
 
 @pytest.fixture(scope="module")
 def base(tmp_path_factory):
-    """One condition: a quasi-static trial and three fast trials at 240 deg/s (ramp 0.2-0.35 s,
-    constant speed 0.35-0.57 s)."""
-    folder = tmp_path_factory.mktemp("plausible") / "study"
-    simulate_study(
-        folder,
-        bodies=TRUTH,
-        conditions=[("attachment",)],
-        speeds=(240,),
-        trials_per_speed=3,
-        quasi_static_speed=4.0,
-        seed=7,
-        phi=0.2,
-        offset=1.5,
-        priors=PRIOR,
-    )
-    return folder
+    """One condition (:func:`cases.one_condition_study`)."""
+    return one_condition_study(tmp_path_factory.mktemp("plausible") / "study")
 
 
 def study(base, tmp_path, setting=None, edit=None):

@@ -20,6 +20,7 @@ from inertiafit.errors import InputError
 __all__ = [
     "SEED_MAX",
     "check_finite",
+    "check_increasing_pair",
     "check_interval",
     "check_non_negative",
     "check_number",
@@ -157,6 +158,21 @@ def check_interval(
             f"expected a number in {span}, got {value!r}",
         )
     return out
+
+
+def check_increasing_pair(value: object, where: str, what: str) -> tuple[float, float]:
+    """``value`` as two finite, increasing numbers ``(lo, hi)``: a list of two.
+
+    ``what`` says what they are in the message (``"numbers [start, end] in s"``).
+    """
+    ok = (
+        isinstance(value, list | tuple)
+        and len(value) == 2
+        and all(_as_float(v) is not None and math.isfinite(float(v)) for v in value)
+    )
+    if not ok or not float(value[0]) < float(value[1]):  # type: ignore[index]
+        raise InputError(f"{where}: expected two increasing {what}, got {value!r}")
+    return float(value[0]), float(value[1])  # type: ignore[index]
 
 
 def check_probability(value: object, where: str = "hdi_prob") -> float:

@@ -97,7 +97,12 @@ from typing import Any
 
 import xarray as xr
 
-from inertiafit._checks import check_finite, check_interval, check_positive
+from inertiafit._checks import (
+    check_finite,
+    check_increasing_pair,
+    check_interval,
+    check_positive,
+)
 from inertiafit.errors import InputError
 from inertiafit.io.readers import (
     available_formats,
@@ -673,17 +678,7 @@ def _torque_sign(value: object, *, where: str) -> int | str:
 
 
 def _window(value: object, *, where: str) -> tuple[float, float]:
-    ok = (
-        isinstance(value, list)
-        and len(value) == 2
-        and all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value
-        )
-    )
-    if not ok or not value[0] < value[1]:  # type: ignore[index]
-        raise _fail(where, f"expected two increasing numbers [start, end] in s, got {value!r}")
-    return float(value[0]), float(value[1])  # type: ignore[index]
+    return check_increasing_pair(value, where, "numbers [start, end] in s")
 
 
 def _settings(table: Mapping[str, Any], *, where: str) -> dict[str, Any]:

@@ -30,13 +30,12 @@ Files are parsed against this schema; nothing in them is executed.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from inertiafit._checks import check_finite, check_positive
+from inertiafit._checks import check_finite, check_increasing_pair, check_positive
 from inertiafit.errors import InputError
 from inertiafit.passive import JOINTS
 
@@ -126,19 +125,7 @@ def check_passive_entry(key: str, value: object, where: str) -> Any:
         return (mean, sd)
     if form == "number":
         return check_positive(value, where, shown)
-    ok = (
-        isinstance(value, list)
-        and len(value) == 2
-        and all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value
-        )
-    )
-    if not ok or not value[0] < value[1]:  # type: ignore[index]
-        raise InputError(
-            f"{where}: expected two increasing joint angles [lo, hi] in {unit}, got {value!r}"
-        )
-    lo, hi = float(value[0]), float(value[1])  # type: ignore[index]
+    lo, hi = check_increasing_pair(value, where, f"joint angles [lo, hi] in {unit}")
     if max(abs(lo), abs(hi)) >= _MAX_DEG:
         raise InputError(f"{where}: joint angles must be within +-{_MAX_DEG:g} deg, got {value!r}")
     return (lo, hi)
