@@ -252,7 +252,8 @@ def estimate_inertia(
     angle = trial["angle"].values
     living = isinstance(gravity, StaticCurve)
     if isinstance(gravity, StaticCurve):
-        columns, coefficients = gravity.columns(angle), tuple(gravity.coefficients)
+        columns = gravity.columns(angle, trial["velocity"].values)
+        coefficients = tuple(gravity.coefficients)
     else:
         columns = [np.sin(angle), np.cos(angle), 1.0]
         coefficients = gravity_coefficients(gravity)

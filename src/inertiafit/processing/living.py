@@ -71,6 +71,7 @@ __all__ = [
     "LEVERAGE_PRIOR",
     "MAX_BLOCKS",
     "PARAMETER_COLUMNS",
+    "REST_SPEED",
     "LivingStatics",
     "PassiveBasis",
     "PostureGeometry",
@@ -93,6 +94,9 @@ _Z95 = 1.959963984540054
 LEVERAGE_PRIOR = 1.5
 #: ... and by the data alone below this factor (in between: both).
 LEVERAGE_DATA = 1.15
+#: Speed (rad/s) below which a fast trial's shaft counts as at rest for the hysteresis
+#: (0.5 deg/s: half a quasi-static sweep's speed, far below any fast trial's).
+REST_SPEED = math.radians(0.5)
 #: Gauss-Newton iterations of the rotations and the noise weights, at most.
 _ITERATIONS = 30
 #: Convergence of the rotations (rad) and of the weights (relative).
@@ -230,9 +234,17 @@ class StaticCurve:
         """``gamma``, the fitted coefficients."""
         return self.statics.coefficients
 
-    def columns(self, angle: NDArray) -> list[NDArray | float]:
-        """Each coefficient's column at ``angle`` (rad): an array, or a float when constant."""
-        return self.statics.columns(angle, self.condition, self.posture, self.direction)
+    def columns(self, angle: NDArray, velocity: NDArray | None = None) -> list[NDArray | float]:
+        """Each coefficient's column at ``angle`` (rad): an array, or a float when constant.
+
+        With the trial's ``velocity`` (rad/s) the hysteresis acts only while the shaft moves,
+        ``H sgn(omega)`` (a step at the start and the end of the move, which the low-pass
+        filter spreads into the ramps as it does the torque's); without it, ``H`` times the
+        move's direction throughout.
+        """
+        return self.statics.columns(
+            angle, self.condition, self.posture, self.direction, velocity=velocity
+        )
 
 
 @dataclass(frozen=True)
@@ -273,10 +285,20 @@ class LivingStatics:
         return self.names.index(name)
 
     def columns(
-        self, angle: NDArray, condition: str, posture: str, direction: int
+        self,
+        angle: NDArray,
+        condition: str,
+        posture: str,
+        direction: int,
+        *,
+        velocity: NDArray | None = None,
     ) -> list[NDArray | float]:
-        """The design columns at ``angle`` for a trial of ``condition`` in ``posture``."""
-        return _columns(
+        """The design columns at ``angle`` for a trial of ``condition`` in ``posture``.
+
+        ``velocity`` (rad/s): the hysteresis column is ``sgn(omega)`` (0 at rest, below
+        :data:`REST_SPEED`) instead of the constant ``direction``.
+        """
+        cols = _columns(
             self.names,
             np.asarray(angle, float),
             condition,
@@ -285,6 +307,11 @@ class LivingStatics:
             self.basis,
             self.coefficients,
         )
+        if velocity is not None:
+            v = np.asarray(velocity, dtype=np.float64)
+            moving = np.where(np.abs(v) > REST_SPEED, np.sign(v), 0.0)
+            cols[self.index("hysteresis")] = moving
+        return cols
 
     def curve(self, condition: str, posture: str, direction: int) -> StaticCurve:
         """What a fast trial of ``condition`` in ``posture`` moving ``direction`` subtracts."""
