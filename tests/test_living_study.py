@@ -9,7 +9,6 @@ import sys
 import tomllib
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
 
@@ -100,18 +99,17 @@ def test_rigid_study_has_no_living_outputs(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("design", ["one", "two"])
-def test_small_seeded_coverage_of_the_living_forearm(design):
-    # Two studies of the benchmark: the living posterior's median within 3.5 posterior
-    # SDs (the HDI width / 3.92) of the truth in every one, for I and M_g; the rigid model on
-    # the same files puts M_g more than 10 % high in the median (the bias).
-    results = [living_coverage.one_study(design, seed) for seed in (101, 102)]
-    for r in results:
-        for q in ("I", "M_g"):
-            sd = r[f"living {q} width"] / (2 * 1.96)
-            assert abs(r[f"living {q} error"]) < 3.5 * sd, (q, r)
-    assert np.median([r["rigid M_g error"] for r in results]) > 0.10
-    assert all(math.isfinite(r["damping_z"]) for r in results)
+@pytest.mark.parametrize(("design", "seed"), [("one", 101), ("two", 102)])
+def test_small_seeded_coverage_of_the_living_forearm(design, seed):
+    # One study of the benchmark per design: the living posterior's median within 3.5
+    # posterior SDs (the HDI width / 3.92) of the truth, for I and M_g; the rigid fit of the
+    # same files reads the forearm's M_g more than 10 % high (the bias).
+    r = living_coverage.one_study(design, seed, rigid_posterior=False)
+    for q in ("I", "M_g"):
+        sd = r[f"living {q} width"] / (2 * 1.96)
+        assert abs(r[f"living {q} error"]) < 3.5 * sd, (q, r)
+    assert r["rigid processed M_g error"] > 0.10, r
+    assert math.isfinite(r["damping_z"])
 
 
 def test_passive_curve_figure_draws_the_band_and_each_gravity_curve(living_run):
