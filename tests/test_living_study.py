@@ -4,6 +4,7 @@ The coverage over many simulated studies is ``benchmarks/living_coverage.py``; h
 seeded version of it and the outputs of ``inertiafit run`` and ``inertiafit report``.
 """
 
+import json
 import math
 import sys
 import tomllib
@@ -14,6 +15,7 @@ import pytest
 
 from inertiafit.cli import main
 from inertiafit.pipeline.redraw import load_result
+from inertiafit.posterior import open_posterior
 from inertiafit.processing.living import CURVE_COLUMNS
 from inertiafit.processing.study import LIVING_ROW_FLAG, process_study
 from inertiafit.simulate import simulate_living_study
@@ -68,6 +70,9 @@ def test_run_writes_the_living_joint(living_run):
         in ident.loc[("forearm", "gravity_moment"), "pinned_by"]
     )
     assert "living" not in ident.loc[("attachment", "gravity_moment"), "pinned_by"]
+    provenance = json.loads(open_posterior(out / "posterior.nc").attrs["provenance"])
+    assert provenance["passive"]["path"].endswith("passive/elbow.toml")
+    assert len(provenance["passive"]["sha256"]) == 64
     page = (out / "report.html").read_text()
     assert "Living joint" in page
     assert "decided by" in page

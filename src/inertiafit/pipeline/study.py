@@ -25,6 +25,7 @@ from inertiafit.inference.priors import Prior
 from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
+from inertiafit.io.shipped import passive_prior_path
 from inertiafit.plotting.style import DEFAULT_FORMATS
 from inertiafit.processing.living import living_tables
 from inertiafit.processing.speed import speed_effect
@@ -65,9 +66,10 @@ def study_provenance(
     ``manifest`` (``path``, ``sha256``), ``on_trial_error``, ``trials`` (per trial: file,
     path, sha256, condition, kind, status and the reader settings, see
     :attr:`~inertiafit.processing.study.ProcessedStudy.provenance`) and ``priors`` (per body:
-    the prior file's ``path`` and ``sha256``, or ``"inline"`` for a table in the manifest).
+    the prior file's ``path`` and ``sha256``, or ``"inline"`` for a table in the manifest);
+    for a living body, ``passive``: its joint's shipped prior file (``path``, ``sha256``).
     """
-    return {
+    out = {
         "manifest": {"path": str(study.path), "sha256": file_sha256(study.path)},
         "on_trial_error": study.on_trial_error,
         "trials": processed.provenance,
@@ -80,11 +82,17 @@ def study_provenance(
             for name, prior in priors.items()
         },
     }
+    if study.passive is not None:  # the living joint's shipped prior file
+        path = passive_prior_path(study.passive.joint)
+        out["passive"] = {"path": str(path), "sha256": file_sha256(path)}
+    return out
 
 
 def study_inputs(study: Study) -> list[Path]:
     """Every file a study reads: the manifest, its trial files and its prior files."""
     priors = [p.path for p in study_priors(study).values() if p.path is not None]
+    if study.passive is not None:
+        priors.append(passive_prior_path(study.passive.joint))
     return [study.path, *(t.file for t in study.trials), *priors]
 
 
