@@ -108,12 +108,13 @@ def test_rigid_study_has_no_living_outputs(tmp_path):
 def test_small_seeded_coverage_of_the_living_forearm(design, seed):
     # One study of the benchmark per design: the living posterior's median within 3.5
     # posterior SDs (the HDI width / 3.92) of the truth, for I and M_g; the rigid fit of the
-    # same files reads the forearm's M_g more than 10 % high (the bias).
+    # same files reads the forearm's M_g more than 10 % high (the bias), or the
+    # processing refuses that reading outright.
     r = living_coverage.one_study(design, seed, rigid_posterior=False)
     for q in ("I", "M_g"):
         sd = r[f"living {q} width"] / (2 * 1.96)
         assert abs(r[f"living {q} error"]) < 3.5 * sd, (q, r)
-    assert r["rigid processed M_g error"] > 0.10, r
+    assert "rigid refused" in r or r["rigid processed M_g error"] > 0.10, r
     assert math.isfinite(r["damping_z"])
 
 
