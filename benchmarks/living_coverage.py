@@ -22,7 +22,7 @@ width relative to the truth, and for the rigid model its coverage and its median
 relative error (the bias the living model removes).
 
 Run:  .venv/bin/python benchmarks/living_coverage.py [--quick] [--studies N] [--seed S]
-      [--json FILE]   (full: 40 studies per design, about 15 minutes on 2 cores; --quick: 8)
+      [--json FILE]   (full: 40 studies per design, 7-12 minutes on 2 cores; --quick: 8)
 """
 
 from __future__ import annotations
