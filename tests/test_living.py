@@ -136,6 +136,7 @@ def test_living_tables_hold_the_joint_and_the_curve():
     rng = np.random.default_rng(3)
     t = _truth(rng)
     fit = fit_statics(_study(rng, TWO, t), TWO, BASIS)
+    assert fit.converged
     tables = living_tables(fit, (0.12, 0.01))
     params = tables["passive_parameters"].set_index("parameter")
     assert params.loc["hysteresis", "lower"] <= t["h"] <= params.loc["hysteresis", "upper"]

@@ -268,6 +268,11 @@ class LivingStatics:
         Each condition's trials (file names), for messages.
     residual_rms : dict of str to float
         RMS residual of each trial (N m), by file.
+    angle_range : (float, float)
+        The device angles (rad) the sweeps covered.
+    converged : bool
+        Whether the rotations and the noise weights settled within the iterations allowed
+        (a study says so when they did not).
     """
 
     names: tuple[str, ...]
@@ -279,6 +284,7 @@ class LivingStatics:
     conditions: tuple[str, ...]
     residual_rms: dict[str, float] = field(default_factory=dict)
     angle_range: tuple[float, float] = (0.0, 0.0)
+    converged: bool = True
 
     def index(self, name: str) -> int:
         """Position of a coefficient."""
@@ -764,6 +770,7 @@ def fit_statics(
         conditions=conditions,
         residual_rms=rms,
         angle_range=(float(angles.min()), float(angles.max())),
+        converged=bool(converged),
     )
 
 

@@ -396,6 +396,12 @@ def process_study(
         statics = fit_statics(
             records, postures, passive_basis(study.passive), where=f"{study.path}: [passive]"
         )
+        if not statics.converged:
+            notes.append(
+                f"{study.path}: the joint fit of gravity and the passive curve did not settle "
+                "(the postures' rotations or the trials' noise weights still moved after 30 "
+                "iterations); its M_g is the last iteration's"
+            )
         if len(statics.conditions) > 1:
             notes.append(
                 f"{study.path}: conditions {', '.join(statics.conditions)} hold the living body "
