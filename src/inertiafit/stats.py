@@ -20,6 +20,7 @@ __all__ = [
     "SMEAR_NEGLIGIBLE",
     "SmearedStudentT",
     "inverse_variance_mean",
+    "shared_error",
     "student_t_draws",
     "student_t_logpdf",
 ]
@@ -39,6 +40,26 @@ def inverse_variance_mean(values: ArrayLike, ses: ArrayLike) -> tuple[float, flo
     """Weighted mean of estimates with standard errors ``ses``, and its standard error."""
     w = 1 / np.asarray(ses, float) ** 2
     return float(np.sum(w * np.asarray(values, float)) / w.sum()), float(1 / math.sqrt(w.sum()))
+
+
+def shared_error(
+    jacobian: ArrayLike, covariance: ArrayLike, gradient: ArrayLike
+) -> tuple[float, float]:
+    """A shared error's effect on one estimate, given its effect on another.
+
+    An error ``delta`` (covariance ``Sigma``) moves estimate ``u`` by ``J delta`` and estimate
+    ``v`` by ``g delta``. Given ``v``'s error, ``u``'s is Gaussian with mean ``coupling * v``,
+    ``coupling = J Sigma g' / g Sigma g'``, and SD ``sqrt(J Sigma J' - coupling J Sigma g')``.
+    Returns ``(coupling, shared_sd)`` (``coupling`` 0 when ``g Sigma g'`` is 0).
+    """
+    jac = np.asarray(jacobian, float)
+    cov = np.asarray(covariance, float)
+    g = np.asarray(gradient, float)
+    var_v = float(g @ cov @ g)
+    cov_uv = float(jac @ cov @ g)
+    coupling = cov_uv / var_v if var_v > 0 else 0.0
+    rest = float(jac @ cov @ jac) - coupling * cov_uv
+    return coupling, math.sqrt(max(rest, 0.0))
 
 
 def _t_log_constant(scale: float, df: float) -> float:

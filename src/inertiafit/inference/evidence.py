@@ -26,6 +26,7 @@ from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.measured import measured_quantity
+from inertiafit.stats import shared_error
 
 if TYPE_CHECKING:  # evidence reads these; importing them would load the processing stack
     from inertiafit.io import Study
@@ -74,15 +75,10 @@ def shared_gravity_error(coefficients, covariance, sensitivities) -> tuple[float
         ``dI/d(A, B, C)`` of each fast trial.
     """
     coef = np.asarray(coefficients, float)
-    cov = np.asarray(covariance, float)
     jac = np.mean(np.atleast_2d(np.asarray(sensitivities, float)), axis=0)
     moment = math.hypot(coef[0], coef[1])
     g_m = np.array([coef[0] / moment, coef[1] / moment, 0.0])
-    var_v = float(g_m @ cov @ g_m)
-    cov_uv = float(jac @ cov @ g_m)
-    coupling = cov_uv / var_v if var_v > 0 else 0.0
-    rest = float(jac @ cov @ jac) - coupling * cov_uv
-    return coupling, math.sqrt(max(rest, 0.0))
+    return shared_error(jac, covariance, g_m)
 
 
 def condition_evidence(processed: ProcessedStudy) -> list[Condition]:

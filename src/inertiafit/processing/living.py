@@ -64,6 +64,7 @@ from inertiafit.processing.gravity import (
     integrated_autocorrelation_time,
     moving_part,
 )
+from inertiafit.stats import inverse_variance_mean, shared_error
 
 __all__ = [
     "CURVE_COLUMNS",
@@ -421,13 +422,7 @@ class LivingStatics:
         coefficient: the mean inertia moves by ``J delta``, ``M_g`` by ``g_m delta``.
         """
         jac = np.mean(np.atleast_2d(sensitivities), axis=0)
-        g_m = self.moment_gradient(condition)
-        cov = self.covariance
-        var_v = float(g_m @ cov @ g_m)
-        cov_uv = float(jac @ cov @ g_m)
-        coupling = cov_uv / var_v if var_v > 0 else 0.0
-        rest = float(jac @ cov @ jac) - coupling * cov_uv
-        return coupling, math.sqrt(max(rest, 0.0))
+        return shared_error(jac, self.covariance, self.moment_gradient(condition))
 
     def damping(self, values, ses, sensitivities) -> tuple[float, float]:
         """The viscous damping ``b`` over fast trials: ``(mean, sd)``.
@@ -436,12 +431,10 @@ class LivingStatics:
         error, which every trial shares (``J_b Sigma J_b'``, ``J_b`` the trials' mean
         sensitivity ``d b / d gamma``) and which the trials' own SEs do not show.
         """
-        values, ses = np.asarray(values, float), np.asarray(ses, float)
-        weights = 1.0 / ses**2
-        mean = float(weights @ values / weights.sum())
+        mean, se = inverse_variance_mean(values, ses)
+        weights = 1.0 / np.asarray(ses, float) ** 2
         jac = weights @ np.atleast_2d(np.asarray(sensitivities, float)) / weights.sum()
-        var = 1.0 / weights.sum() + float(jac @ self.covariance @ jac)
-        return mean, math.sqrt(var)
+        return mean, math.sqrt(se**2 + float(jac @ self.covariance @ jac))
 
     def value(self, name: str) -> tuple[float, float]:
         """A coefficient's mean and SD."""
@@ -551,6 +544,11 @@ def posture_geometry(posture: Posture) -> PostureGeometry:
     )
 
 
+def _matrix(columns: Sequence[NDArray | float], theta: NDArray) -> NDArray:
+    """The design matrix of :func:`_columns`' entries at ``theta`` (constants broadcast)."""
+    return np.column_stack([np.broadcast_to(c, theta.shape) for c in columns])
+
+
 def _layout(
     conditions: Sequence[str], pairs: Sequence[str], used: Sequence[str], basis: PassiveBasis
 ) -> tuple[tuple[str, ...], NDArray, NDArray]:
@@ -627,11 +625,11 @@ def design_statics(
         for k in range(sweeps):
             direction = 1 if k % 2 == 0 else -1
             cols = _columns(names, theta, condition, posture, direction, basis, coef)
-            x = np.column_stack([np.broadcast_to(c, theta.shape) for c in cols])
+            x = _matrix(cols, theta)
             precision += (x.T @ x) / per_block
         if rest_trials:
             cols = _columns(names, holds, condition, posture, 0, basis, coef)
-            x = np.column_stack([np.broadcast_to(c, holds.shape) for c in cols])
+            x = _matrix(cols, holds)
             precision += (x.T @ x) / (per_second / rest_seconds)
     return LivingStatics(
         names=names,
@@ -724,7 +722,7 @@ def fit_statics(
                 basis,
                 coef,
             )
-            x = np.column_stack([np.broadcast_to(c, prep.theta.shape) for c in cols])
+            x = _matrix(cols, prep.theta)
             designs.append(x)
             gram += weights[k] * (x.T @ x)
             rhs += weights[k] * (x.T @ stacked_y[k])
