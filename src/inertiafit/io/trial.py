@@ -482,7 +482,7 @@ def _swapped_columns(
     if not found:
         return None
     spread, angle, velocity, check = min(found, key=lambda f: f[0])
-    if declared is not None and declared.spread <= spread * 1.1:  # not clearly the better
+    if declared is not None:  # the declared pair follows too (a sinusoid follows its derivative)
         return None
     torque = next(c for c in channels if c not in (angle, velocity))
     mapping = {"angle": angle, "velocity": velocity, "torque": torque}
