@@ -670,10 +670,11 @@ def simulate_trial(
     source : str
         Recorded in ``attrs["source"]``.
     sampling : {"instant", "average"}
-        ``"instant"`` (the default): each sample is the value at its time. The acceleration
-        jumps at the corners of the profile, so a corner between two samples puts up to half a
-        sample of ``I alpha`` in the torque that the velocity does not show: negligible at
-        1 kHz, a bias of several per cent on a 100 ms ramp at 100 Hz. ``"average"``: the
+        ``"instant"`` (the default): each sample is the value at its time; a sample on a
+        corner of the profile, where the acceleration jumps, takes the mean of its two sides.
+        A corner between two samples puts up to half a sample of ``I alpha`` in the torque
+        that the velocity does not show locally: negligible at 1 kHz, a bias of several per
+        cent on a 100 ms ramp at 100 Hz. ``"average"``: the
         torque and the velocity are their means over the sample period centred on each
         sample (an integrating front end), so the torque's ``I alpha`` always adds up to the
         velocity's change; use it below 1 kHz.
