@@ -492,13 +492,15 @@ def test_manifest_of_random_bytes_is_an_input_error(data):
 # --- EMG channels (issue 20) ---------------------------------------------------------------
 
 EMG_UNITS = {"V": 1.0, "mV": 1e-3, "uV": 1e-6, "µV": 1e-6}
+#: Names of the other columns of the files written below (never an EMG channel's).
+_CHANNEL_NAMES = {"time", "angle", "velocity", "torque", "frame", "sub frame", "angular velocity"}
 #: EMG column names: a letter first (a name that reads as a number is not a header), then any
 #: printable characters but the delimiters and quotes.
 EMG_NAMES = st.text(
     alphabet=st.characters(codec="utf-8", exclude_categories=["Cs", "Cc", "Z"],
                            exclude_characters=',;\t"\'|'),
     min_size=1, max_size=12,
-).filter(lambda s: s[0].isalpha() and s.lower() not in ("time", "angle", "velocity", "torque"))  # fmt: skip
+).filter(lambda s: s[0].isalpha() and s.strip().lower() not in _CHANNEL_NAMES)  # fmt: skip
 
 
 #: EMG labels a C3D file can hold (py-c3d writes labels as ASCII).
