@@ -14,6 +14,7 @@ from .pipeline.study import analyse_study, run_study
 from .planning.design import Design, NoiseLevels
 from .planning.planner import plan
 from .posterior import Posterior, open_posterior
+from .processing.emg import emg_activity
 
 __version__: str
 
@@ -33,6 +34,7 @@ __all__ = [
     "__version__",
     "analyse_study",
     "available_priors",
+    "emg_activity",
     "fit",
     "fit_body",
     "load_prior",
