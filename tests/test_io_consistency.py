@@ -265,7 +265,10 @@ def test_a_sinusoid_read_in_order_is_not_called_swapped():
     t = np.arange(49) / 200.0
     w = 1.90625 * 2 * np.pi
     speed = np.radians(20.0)
-    tenths = lambda x: np.round(10 * x) / 10  # noqa: E731 -- an IsoMed file's resolution
+
+    def tenths(x):  # an IsoMed file's resolution
+        return np.round(10 * x) / 10
+
     angle = np.radians(tenths(np.degrees(speed / w * np.sin(w * t))))
     velocity = np.radians(tenths(np.degrees(speed * np.cos(w * t))))
     torque = tenths(np.cos(angle) + 0.2)

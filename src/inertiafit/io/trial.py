@@ -516,14 +516,15 @@ def _swapped_columns(
 ) -> str | None:
     """The message for columns mapped to the wrong channels, or ``None``.
 
-    The velocity channel does not follow the angle's derivative (:func:`_follows_cleanly`);
-    if another channel follows the derivative of another, much better than the declared pair
-    does, the file's columns hold the channels in another order: a torque column holding the
+    The velocity channel does not follow the angle's derivative (:func:`_follows_cleanly`,
+    nor loosely, :func:`_follows`); if another channel follows the derivative of another, the
+    file's columns hold the channels in another order: a torque column holding the
     angle reads as a torque that never turns negative (which ``torque_sign`` cannot fix), an
     angle column holding the torque as gravity at the wrong angles.
     """
     channels = ("angle", "velocity", "torque")
-    declared = _follows(time, arrays["angle"], arrays["velocity"])
+    if _follows(time, arrays["angle"], arrays["velocity"]) is not None:
+        return None  # the declared pair follows too (a sinusoid also follows its derivative)
     found = []
     for angle, velocity in permutations(channels, 2):
         if (angle, velocity) != ("angle", "velocity"):
@@ -532,9 +533,7 @@ def _swapped_columns(
                 found.append((check.spread, angle, velocity, check))
     if not found:
         return None
-    spread, angle, velocity, check = min(found, key=lambda f: f[0])
-    if declared is not None:  # the declared pair follows too (a sinusoid follows its derivative)
-        return None
+    _, angle, velocity, check = min(found, key=lambda f: f[0])
     torque = next(c for c in channels if c not in (angle, velocity))
     mapping = {"angle": angle, "velocity": velocity, "torque": torque}
     moved = [c for c in channels if mapping[c] != c]
