@@ -10,10 +10,12 @@ from .inference.sampler import SamplerSettings, sample
 from .io import load_study, read_trial
 from .mounting import Mounting
 from .pipeline.batch import run_many
+from .pipeline.export import run_export
 from .pipeline.study import analyse_study, run_study
 from .planning.design import Design, NoiseLevels
 from .planning.planner import plan
 from .posterior import Posterior, open_posterior
+from .report.propagate import Propagation, propagate
 
 __version__: str
 
@@ -29,6 +31,7 @@ __all__ = [
     "Observation",
     "Posterior",
     "Prior",
+    "Propagation",
     "SamplerSettings",
     "__version__",
     "analyse_study",
@@ -40,8 +43,10 @@ __all__ = [
     "open_posterior",
     "paper_baseline",
     "plan",
+    "propagate",
     "read_trial",
     "reference_posterior",
+    "run_export",
     "run_many",
     "run_study",
     "sample",
