@@ -34,12 +34,12 @@ def results(tmp_path_factory) -> Path:
     prior = anthropometric_prior("de-leva-male", "forearm", 75.0, 0.27, name="forearm")
     post = fit_body(
         prior,
-        inertia=0.06,
-        inertia_se=0.001,
-        gravity_moment=2.4,
+        inertia=0.025,
+        inertia_se=0.0005,
+        gravity_moment=1.5,
         gravity_moment_se=0.02,
         seed=3,
-        settings=SamplerSettings(ess_min=200),
+        settings=SamplerSettings(ess_min=100, chunk=100),
     )
     post.save(folder / "posterior.nc")
     return folder
@@ -169,12 +169,12 @@ def test_json_every_number(results, draws, tmp_path):
 
 def test_declared_radii_win_over_the_prior(results, draws, tmp_path):
     declarations = tmp_path / "radii.toml"
-    declarations.write_text("[bodies.forearm]\nradius_long = 0.03\nradius_cross = 0.1\n")
+    declarations.write_text("[bodies.forearm]\nradius_long = 0.03\nradius_cross = 0.065\n")
     (median,), _ = run_export(results, fmt="json", out=tmp_path / "out",
                               declarations=declarations, echo=lambda s: None)  # fmt: skip
     m, _, rho = _medians(draws)
     assert median.inertia[0][0] == pytest.approx(m * 0.03**2, rel=1e-14)
-    assert median.inertia[1][1] == pytest.approx(m * 0.1**2, rel=1e-14)
+    assert median.inertia[1][1] == pytest.approx(m * 0.065**2, rel=1e-14)
     assert median.inertia[2][2] == pytest.approx(m * rho**2, rel=1e-14)
 
 
