@@ -165,6 +165,10 @@ def test_json_every_number(results, draws, tmp_path):
     np.testing.assert_allclose(body["inertia"], expected, rtol=1e-12)
     assert data["frame"]["joint_axis"].startswith("y")
     assert data["gravity"] == 9.81
+    other = body["other_radii"]
+    assert other["kind"] == "ratio"
+    assert other["sd_log"] == 0.1  # de Leva's table spread of the radius of gyration
+    assert (other["long"], other["cross"]) == pytest.approx((LONG, SAG), rel=1e-12)
 
 
 def test_declared_radii_win_over_the_prior(results, draws, tmp_path):
@@ -231,6 +235,11 @@ def test_bad_inputs(results, boxed, tmp_path):
         run_export(results, fmt="osim", out=mine, **quiet)
     assert (mine / "notes.txt").read_text() == "keep me"
     assert not (tmp_path / "o").exists()
+    # a declaration for a body the posterior does not have
+    with pytest.raises(InputError, match="no body 'shank'"):
+        run_export(results, fmt="osim", out=tmp_path / "o", **quiet,
+                   declared={"shank": declared_radii(
+                       "shank", {"ratio_long": 0.4, "ratio_cross": 1.0}, where="t")})  # fmt: skip
     # radii that cannot be a rigid body's
     with pytest.raises(InputError, match="triangle inequality"):
         run_export(results, fmt="osim", out=tmp_path / "o", **quiet,

@@ -175,7 +175,8 @@ class BodyInertia:
 
     ``com`` is in the body frame (origin at the joint); ``inertia`` is 3 x 3 about the centre
     of mass in the body frame; ``radii`` are the radii of gyration about the centre of mass
-    (``joint``, ``long``, ``cross``).
+    (``joint``, ``long``, ``cross``); ``extra["other_radii"]`` how the long and cross radii
+    were declared (``kind``, ``long``, ``cross``, ``sd_log``: the uncertainty the draws carry).
     """
 
     name: str
@@ -375,7 +376,7 @@ def _body(
     long: float,
     cross: float,
     frame: Frame,
-    source: str,
+    spec: OtherRadii,
     draw: int,
 ) -> BodyInertia:
     sign = 1.0 if frame.long_axis[0] == "+" else -1.0
@@ -392,8 +393,16 @@ def _body(
         com=(com[0], com[1], com[2]),
         inertia=tensor,
         radii={"joint": rho, "long": long, "cross": cross},
-        source=source,
+        source=spec.source,
         draw=draw,
+        extra={
+            "other_radii": {
+                "kind": spec.kind,
+                "long": spec.long,
+                "cross": spec.cross,
+                "sd_log": spec.sd_log,
+            }
+        },
     )
 
 
@@ -434,9 +443,7 @@ def exported_bodies(
     for b in posterior.bodies:
         m, x, rho = (float(np.median(values[b][p])) for p in values[b])
         long, cross = _radii(np.array([rho]), radii[b], None, b)
-        median.append(
-            _body(b, m, x, rho, float(long[0]), float(cross[0]), frame, radii[b].source, -1)
-        )
+        median.append(_body(b, m, x, rho, float(long[0]), float(cross[0]), frame, radii[b], -1))
     sampled: list[list[BodyInertia]] = []
     if draws:
         index = rng.choice(total, size=draws, replace=draws > total)
@@ -454,7 +461,7 @@ def exported_bodies(
                         float(per_body[b][0][k]),
                         float(per_body[b][1][k]),
                         frame,
-                        radii[b].source,
+                        radii[b],
                         int(i),
                     )
                     for b in posterior.bodies
@@ -582,7 +589,7 @@ def _json(bodies: Sequence[BodyInertia], frame: Frame, title: str, gravity: floa
                 "com": list(b.com),
                 "inertia": [list(row) for row in b.inertia],
                 "radii_of_gyration": b.radii,
-                "other_radii_source": b.source,
+                "other_radii": {**b.extra.get("other_radii", {}), "source": b.source},
                 **({"posterior_draw": b.draw} if b.draw >= 0 else {}),
             }
             for b in bodies
