@@ -490,7 +490,8 @@ class _Export(_Command):
             "--long-axis",
             default="+x",
             metavar="AXIS",
-            help="the body axis from the joint to the centre of mass (default +x)",
+            help="the body axis from the joint to the centre of mass: +x (default), y, -z, ... "
+            "(a negative one as --long-axis=-y)",
         )
         p.add_argument(
             "--joint-axis",
