@@ -52,6 +52,24 @@ def test_shares_by_parameter_and_by_identified_pair():
     assert shares.iloc[250]["share_mass"] < 0.02
 
 
+def test_shares_of_two_independent_parameters():
+    # No acceleration: M = m g x sin(theta). With m and x independent, CVs 0.10 and 0.05,
+    # first order: Var M / M^2 = 0.10^2 + 0.05^2, so S_m = 0.8 and S_x = 0.2.
+    rng = np.random.default_rng(3)
+    n = 20_000
+    draws = {
+        "mass": 1.5 * (1 + 0.10 * rng.standard_normal(n)),
+        "com_distance": 0.15 * (1 + 0.05 * rng.standard_normal(n)),
+        "radius_of_gyration": 0.08,
+    }
+    motion = {"time": TIME[::50], "angle": ANGLE[::50], "acceleration": np.zeros(21)}
+    row = propagate(draws, motion).shares().iloc[5]  # t = 0.25 s
+    assert row["share_mass"] == pytest.approx(0.8, abs=0.02)
+    assert row["share_com_distance"] == pytest.approx(0.2, abs=0.02)
+    assert row["share_radius_of_gyration"] < 0.01
+    assert row["share_gravity_moment"] == pytest.approx(1.0, abs=1e-9)
+
+
 def _posterior(draws: dict[str, np.ndarray]) -> Posterior:
     data = {p: (("chain", "draw", "body"), v.reshape(4, -1, 1)) for p, v in draws.items()}
     return Posterior(
@@ -76,7 +94,7 @@ def test_band_narrows_from_box_to_de_leva_to_posterior():
     kept = {p: v[keep][:2000] for p, v in many.items()}
     assert kept["mass"].size == 2000
     post = _posterior(kept)
-    motion = (TIME, ANGLE)
+    motion = (TIME[::10], ANGLE[::10])
     widths = []
     for source in (box, de_leva, post):
         peak = propagate(source, motion, seed=4).peak()
@@ -90,7 +108,7 @@ def test_band_narrows_from_box_to_de_leva_to_posterior():
     assert list(table.columns[:7]) == [
         "time", "angle", "acceleration", "median", "hdi_lower", "hdi_upper", "sd"
     ]  # fmt: skip
-    assert propagate(post, motion, draws=100, seed=1).moments.shape == (100, TIME.size)
+    assert propagate(post, motion, draws=100, seed=1).moments.shape == (100, 101)
 
 
 def test_a_trial_file(tmp_path):
