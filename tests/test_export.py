@@ -205,6 +205,12 @@ def test_bad_declaration_file(tmp_path):
     path.write_text("[bodies.forearm\n")
     with pytest.raises(InputError, match="not valid TOML"):
         load_declarations(path)
+    path.write_text("[frame]\nlong_axis = 'x'\n")
+    with pytest.raises(InputError, match="unknown key 'frame'"):
+        load_declarations(path)
+    path.write_text("")
+    with pytest.raises(InputError, match=r"no \[bodies.<name>\] table"):
+        load_declarations(path)
     with pytest.raises(InputError, match="long_axis"):
         Frame(long_axis="w")
 

@@ -264,8 +264,10 @@ def load_declarations(path: str | Path) -> dict[str, OtherRadii]:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read declarations ({exc})") from None
     bad = sorted(set(raw) - {"bodies"})
-    if bad or not isinstance(raw.get("bodies"), dict):
-        raise InputError(f"{path}: expected only [bodies.<name>] tables, got '{(bad or [''])[0]}'")
+    if bad:
+        raise InputError(f"{path}: unknown key '{bad[0]}' (expected [bodies.<name>] tables)")
+    if not isinstance(raw.get("bodies"), dict) or not raw["bodies"]:
+        raise InputError(f"{path}: no [bodies.<name>] table")
     return {
         str(body): declared_radii(str(body), entry, where=str(path))
         for body, entry in raw["bodies"].items()
