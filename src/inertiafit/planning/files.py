@@ -290,7 +290,7 @@ def pilot_inputs(folder: str | Path) -> dict[str, Any]:
             f"{trials_path}: column '{missing[0]}' missing (expected {', '.join(need)})"
         )
     if "status" in trials.columns:
-        trials = trials[trials["status"].fillna("ok") != "skipped"]
+        trials = trials[trials["status"].fillna("ok") == "ok"]  # not skipped or excluded
     inputs = json.loads(post.attrs.get("inputs", "{}") or "{}")
     conditions = {k: tuple(v) for k, v in inputs.get("conditions", {}).items()}
     if not conditions:

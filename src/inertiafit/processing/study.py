@@ -8,6 +8,12 @@ trial. The per-trial values it returns (:class:`ProcessedStudy`) are what
 A trial that cannot be read or processed stops the study, or, with the manifest's
 ``on_trial_error = "skip"``, is skipped: it keeps a row (``status`` ``"skipped"``, the reason
 in ``flags``) and a line in the warnings, and nothing of it reaches the evidence.
+
+Trials read with EMG channels are checked for muscle activity
+(:mod:`inertiafit.processing.activity`; the ``[emg]`` table's ``on_activity``): an active fast
+trial is excluded (``status`` ``"excluded"``, its values and the muscle, times and ratio in
+``flags``; nothing of it reaches the evidence), flagged, or stops the study; a quasi-static
+sweep's active stretches are cut out of its fit. ``trials.csv`` then gains ``emg_peak_ratio``.
 """
 
 from __future__ import annotations
@@ -26,7 +32,15 @@ import xarray as xr
 
 from inertiafit.errors import InputError
 from inertiafit.io import Study, TrialSpec, load_study
+from inertiafit.io.emg import EmgSettings
 from inertiafit.io.manifest import file_sha256
+from inertiafit.processing.activity import (
+    ActivityCheck,
+    RestLevels,
+    check_fast,
+    check_sweep,
+    study_rest_levels,
+)
 from inertiafit.processing.gravity import GravityFit, fit_gravity
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import lag_consistency_flags
@@ -43,6 +57,7 @@ from inertiafit.processing.plausibility import fast_trial_flags
 from inertiafit.stats import inverse_variance_mean
 
 __all__ = [
+    "EMG_TRIAL_COLUMNS",
     "LIVING_ROW_FLAG",
     "LIVING_TRIAL_COLUMNS",
     "PHASE_TOLERANCE",
@@ -82,14 +97,19 @@ TRIAL_COLUMNS = [
 #: Columns ``trials.csv`` gains when a body is living: the trial's posture and a fast trial's
 #: viscous damping ``b`` (N m s/rad) with its standard error.
 LIVING_TRIAL_COLUMNS = ["posture", "damping", "damping_se"]
+#: The column ``trials.csv`` gains when the study has EMG: the largest EMG envelope over its
+#: rest level, over the muscles, in the windows checked (a fast trial's analysis and reflex
+#: windows, a quasi-static sweep's length; empty for a trial without EMG).
+EMG_TRIAL_COLUMNS = ["emg_peak_ratio"]
 #: The flag of a living condition's quasi-static row: what its gravity moment is.
 LIVING_ROW_FLAG = (
     "living body: gravity_moment here is the rigid fit of this sweep alone, which absorbs the "
     "passive curve (the paper's method); the condition's M_g is the joint fit's "
     "(passive_parameters.csv)"
 )
-#: ``status`` of a trial whose values were used, and of one skipped (``on_trial_error``).
-STATUS_OK, STATUS_SKIPPED = "ok", "skipped"
+#: ``status`` of a trial whose values were used, of one skipped (``on_trial_error``), and of
+#: one excluded for muscle activity (``[emg] on_activity = "exclude"``).
+STATUS_OK, STATUS_SKIPPED, STATUS_EXCLUDED = "ok", "skipped", "excluded"
 #: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures.
 TRACE_COLUMNS = [
     "condition",
@@ -132,8 +152,10 @@ class ProcessedStudy:
     warnings : list of str
         Flags worth a look and skipped trials: one line each, naming the file.
     skipped : pandas.DataFrame
-        A row per skipped trial (``on_trial_error = "skip"``), columns :data:`TRIAL_COLUMNS`:
-        ``status`` ``"skipped"``, the reason in ``flags``, no values.
+        A row per trial left out, columns :data:`TRIAL_COLUMNS` (and, with EMG, those of
+        ``trials``): skipped (``on_trial_error = "skip"``; ``status`` ``"skipped"``, the reason
+        in ``flags``, no values) or excluded for muscle activity (``status`` ``"excluded"``,
+        the muscle, times and ratio in ``flags``, its values kept for the record).
     provenance : list of dict
         Per trial in manifest order: ``file`` (relative to the manifest), ``path``,
         ``sha256`` (of the file as read; ``None`` if it could not be read), ``condition``,
@@ -357,6 +379,7 @@ def process_study(
     data = _check_rates(data, run)
     rows: dict[int, dict] = {}  # by manifest order
     notes = run.notes
+    emg = _EmgCheck.of(study, data, notes)
     say("fitting the gravity model of each condition (quasi-static trials)")
     living_conditions = _living_conditions(study)
     postures = _posture_geometry(study)
@@ -369,7 +392,16 @@ def process_study(
             continue
         if spec.kind != "quasi-static":
             continue
-        fit = run.attempt(spec, functools.partial(fit_gravity, ds))
+        emg_flag: tuple[str, ...] = ()
+        if emg is not None and "emg" in ds:
+            checked = run.attempt(spec, functools.partial(emg.sweep, spec, ds))
+            if checked is None:
+                continue
+            fitted, emg_flag, sweep_check = checked
+            emg.stop(spec, sweep_check)  # refuses the study, whatever on_trial_error says
+        else:
+            fitted = ds
+        fit = run.attempt(spec, functools.partial(fit_gravity, fitted))
         if fit is None:
             continue
         if spec.condition in living_conditions:
@@ -377,11 +409,13 @@ def process_study(
             # flags describe that curve, and its M_g is the rigid model's (the paper's)
             kept = [f for f in fit.flags if f.startswith(("not quasi-static", "small angle"))]
             fit = dataclasses.replace(fit, flags=(*kept, LIVING_ROW_FLAG))
+        if emg_flag:
+            fit = dataclasses.replace(fit, flags=(*fit.flags, *emg_flag))
         notes.extend(f"{fit.source}: {flag}" for flag in fit.flags if flag != LIVING_ROW_FLAG)
         qs_fits.setdefault(spec.condition, []).append(fit)
         rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
         if spec.condition in living_conditions:
-            records.append(_record(spec, ds))
+            records.append(_record(spec, fitted))
     run.check_left(qs_fits, "quasi-static")
     _check_rigid_postures(study, living_conditions)
     gravity = {
@@ -455,6 +489,20 @@ def process_study(
         )
         if more is None:
             continue
+        if emg is not None and "emg" in ds:
+            check = run.attempt(spec, functools.partial(emg.fast, spec, ds, est))
+            if check is None:
+                continue
+            emg.stop(spec, check)
+            if check.active and emg.action == "exclude":
+                est = dataclasses.replace(est, flags=(*est.flags, *more))
+                row = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
+                if spec.condition in living_conditions:
+                    row.update(damping=est.damping, damping_se=est.damping_se)
+                run.exclude(spec, row, check.describe())
+                continue
+            if check.active:
+                more = [*more, check.describe()]
         if more:
             est = dataclasses.replace(est, flags=(*est.flags, *more))
         notes.extend(f"{est.source}: {flag}" for flag in est.flags)
@@ -475,6 +523,7 @@ def process_study(
         }
     )
     columns = TRIAL_COLUMNS
+    left_columns = TRIAL_COLUMNS
     living_coupling: dict[str, tuple[float, float]] = {}
     damping = None
     if statics is not None:
@@ -482,6 +531,8 @@ def process_study(
         for spec, _ in data:
             if spec.index in rows:
                 rows[spec.index]["posture"] = spec.posture
+            elif spec.index in run.skipped:
+                run.skipped[spec.index]["posture"] = spec.posture
         living_fast = [(s_, e) for s_, e in fast_estimates if s_.condition in living_conditions]
         for spec, est in living_fast:
             rows[spec.index].update(damping=est.damping, damping_se=est.damping_se)
@@ -495,6 +546,10 @@ def process_study(
                 [e.damping_se for _, e in living_fast],
                 [e.damping_sensitivity for _, e in living_fast],
             )
+    if emg is not None:
+        columns = left_columns = [*columns, *EMG_TRIAL_COLUMNS]
+        for index, row in (*rows.items(), *run.skipped.items()):
+            row["emg_peak_ratio"] = emg.peak.get(index, math.nan)
     trials = pd.DataFrame([rows[i] for i in sorted(rows)], columns=columns)
     return ProcessedStudy(
         study=study,
@@ -502,7 +557,7 @@ def process_study(
         gravity=gravity,
         traces=_traces(traces),
         warnings=list(dict.fromkeys(notes)),  # a reader flag a later step repeats: once
-        skipped=pd.DataFrame([run.skipped[i] for i in sorted(run.skipped)], columns=TRIAL_COLUMNS),
+        skipped=pd.DataFrame([run.skipped[i] for i in sorted(run.skipped)], columns=left_columns),
         provenance=[run.provenance[t.index] for t in study.trials],
         sensitivity=sensitivity,
         living=statics,
@@ -621,6 +676,21 @@ class _Run:
         self.skipped[spec.index] = row
         self.provenance[spec.index]["status"] = STATUS_SKIPPED
 
+    def exclude(self, spec: TrialSpec, row: dict, reason: str) -> None:
+        """Exclude a trial for muscle activity; nothing of it is used.
+
+        Its row keeps its values, the reason first in ``flags``, ``status`` ``"excluded"``;
+        a line joins the warnings.
+        """
+        self.reasons[spec.index] = reason
+        self.notes.append(f"{spec.file}: trial excluded: {reason}")
+        row.update(
+            status=STATUS_EXCLUDED,
+            flags="; ".join(filter(None, [f"excluded: {reason}", row["flags"]])),
+        )
+        self.skipped[spec.index] = row
+        self.provenance[spec.index]["status"] = STATUS_EXCLUDED
+
     def reader_flags(self, spec: TrialSpec) -> tuple[str, ...]:
         return self.flags.get(spec.index, ())
 
@@ -631,6 +701,11 @@ class _Run:
             if not listed or used.get(condition):
                 continue
             gone = [t for t in listed if t.index in self.skipped]
+            how = (
+                "skipped"
+                if all(self.skipped[t.index]["status"] == STATUS_SKIPPED for t in gone)
+                else "left out"
+            )
             named = ", ".join(
                 f"{_relative(t.file, self.study.base_dir)} ({self.reasons[t.index]})"
                 for t in gone[:3]
@@ -642,7 +717,7 @@ class _Run:
             )
             raise InputError(
                 f"{self.study.path}: condition '{condition}': no usable {kind} trial; "
-                f"skipped: {named}; {need}"
+                f"{how}: {named}; {need}"
             )
 
 
@@ -784,3 +859,78 @@ def _check_phases(study: Study, gravity: dict[str, GravityFit], notes: list[str]
                 f"{study.path}: the gravity phase of condition '{c}' differs from '{conds[0]}' "
                 f"by {diff:.3f} rad; are the bodies mounted in line?"
             )
+
+
+@dataclass
+class _EmgCheck:
+    """The EMG check of one :func:`process_study` call: settings, rest levels, peak ratios."""
+
+    study: Study
+    settings: EmgSettings
+    rest: RestLevels
+    peak: dict[int, float] = field(default_factory=dict)  # emg_peak_ratio by manifest index
+
+    @property
+    def action(self) -> str:
+        return self.settings.on_activity
+
+    @classmethod
+    def of(cls, study: Study, data: list, notes: list[str]) -> _EmgCheck | None:
+        """The check, when a trial read has EMG; ``None`` otherwise.
+
+        Rest levels from the rest trials, else the quasi-static ones (said in ``notes``).
+        """
+        if not any("emg" in ds for _, ds in data):
+            return None
+        settings = study.emg if study.emg is not None else EmgSettings()
+        rest, lines = study_rest_levels(
+            [ds for spec, ds in data if spec.kind == "rest"],
+            [ds for spec, ds in data if spec.kind == "quasi-static"],
+            settings,
+            base_dir=str(study.base_dir),
+        )
+        notes.extend(f"{study.path}: {line}" for line in lines)
+        return cls(study, settings, rest)
+
+    def stop(self, spec: TrialSpec, check: ActivityCheck) -> None:
+        """With ``on_activity = "stop"``, an active trial refuses the study in one line."""
+        if check.active and self.action == "stop":
+            raise InputError(
+                f"{spec.file}: {check.describe()}; the muscle was not relaxed "
+                '([emg] on_activity = "stop"; "exclude" leaves such trials out)'
+            )
+
+    def fast(self, spec: TrialSpec, ds: xr.Dataset, est: InertiaEstimate) -> ActivityCheck:
+        """A fast trial's check (its ``emg_peak_ratio`` kept)."""
+        deceleration = None
+        if est.deceleration_start is not None and est.deceleration_end is not None:
+            deceleration = (est.deceleration_start, est.deceleration_end)
+        check = check_fast(
+            ds,
+            self.rest,
+            self.settings,
+            window=(est.window_start, est.window_end),
+            deceleration=deceleration,
+            velocity=est.velocity,
+        )
+        self.peak[spec.index] = check.peak_ratio
+        return check
+
+    def sweep(
+        self, spec: TrialSpec, ds: xr.Dataset
+    ) -> tuple[xr.Dataset, tuple[str, ...], ActivityCheck]:
+        """A quasi-static sweep's check: the trial to fit, its flag, and the check.
+
+        With ``"exclude"``, the trial to fit has its active stretches cut out.
+        """
+        check = check_sweep(ds, self.rest, self.settings)
+        self.peak[spec.index] = check.peak_ratio
+        if not check.active or self.action == "stop":
+            return ds, (), check
+        text = check.describe()
+        if self.action == "exclude":
+            time = np.asarray(ds["time"].values)
+            keep = check.cut(time)
+            ds = ds.isel(time=np.flatnonzero(keep))
+            text += f"; {int((~keep).sum())} samples cut out of the fit"
+        return ds, (text,), check

@@ -16,7 +16,9 @@ vertical. ``docs/processing.md`` ("Simulated trials") gives the numbers.
 - :func:`paper_study` writes the experiment of Son et al. (62 trials);
 - :func:`simulate_living_study` writes a study of a living limb (a joint's passive elastic
   moment, damping and hysteresis; postures; rest trials), its joint's truth a
-  :class:`PassiveTruth`.
+  :class:`PassiveTruth`;
+- both write EMG channels with ``emg=EmgSimulation(...)``: rest noise and stretch reflexes
+  (burst and torque) in chosen fast trials (:mod:`~inertiafit.simulate.emg`).
 
 Seeding: every function takes a seed or a :class:`numpy.random.Generator`; the same seed gives
 the same files, byte for byte. :func:`simulate_study` gives each trial its own child seed
@@ -34,6 +36,7 @@ The package's modules: :mod:`~inertiafit.simulate.signals` (the signal model,
 from __future__ import annotations
 
 from inertiafit.io.units import FT_LBF
+from inertiafit.simulate.emg import EmgSimulation
 from inertiafit.simulate.living import PassiveTruth, rigid_view, simulate_living_study
 from inertiafit.simulate.paper import PAPER_PRIORS, PAPER_TRUTH, paper_study
 from inertiafit.simulate.signals import KINDS, Body, Motion, Noise, simulate_trial
@@ -45,6 +48,7 @@ __all__ = [
     "PAPER_PRIORS",
     "PAPER_TRUTH",
     "Body",
+    "EmgSimulation",
     "Motion",
     "Noise",
     "PassiveTruth",

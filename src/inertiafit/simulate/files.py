@@ -69,7 +69,13 @@ def toml_value(value: Any) -> str:
 
 
 def write_trial_csv(
-    path: Path, trial: xr.Dataset, *, angle_unit: str, torque_unit: str, time_unit: str
+    path: Path,
+    trial: xr.Dataset,
+    *,
+    angle_unit: str,
+    torque_unit: str,
+    time_unit: str,
+    emg: Mapping[str, np.ndarray] | None = None,
 ) -> None:
     """Write a Trial as the generic CSV format, in the given units.
 
@@ -95,6 +101,7 @@ def write_trial_csv(
             from_si(trial["angle"].values, "angle", angle_unit, where=where),
             from_si(trial["velocity"].values, "velocity", VELOCITY_UNITS[angle_unit], where=where),
             from_si(trial["torque"].values, "torque", torque_unit, where=where),
+            *(np.asarray(v, dtype=np.float64) for v in (emg or {}).values()),
         ]
     )
     np.savetxt(
@@ -102,6 +109,6 @@ def write_trial_csv(
         columns,
         fmt="%.10g",
         delimiter=",",
-        header="time,angle,velocity,torque",
+        header=",".join(["time", "angle", "velocity", "torque", *(emg or {})]),
         comments="",
     )

@@ -34,10 +34,14 @@ from inertiafit.io.units import DEG
 from inertiafit.mounting import Mounting
 from inertiafit.passive import JOINTS, passive_moment
 from inertiafit.physics import GRAVITY
+from inertiafit.simulate.emg import EmgSimulation, Reflex
+from inertiafit.simulate.emg import truth_lines as emg_truth_lines
 from inertiafit.simulate.files import check_units, toml_value, write_trial_csv
 from inertiafit.simulate.signals import Body, Motion, Noise, simulate_trial
 from inertiafit.simulate.study import (
     condition_totals,
+    emg_manifest_lines,
+    emg_plan,
     manifest_head,
     trial_entry,
     truth_lines,
@@ -323,6 +327,7 @@ def simulate_living_study(
     priors: Mapping[str, str | Mapping[str, Any]] | None = None,
     passive_prior: Mapping[str, Any] | None = None,
     name: str = "Simulated living study",
+    emg: EmgSimulation | None = None,
 ) -> Path:
     """Write a simulated study of a living limb: CSV files, ``study.toml`` and ``truth.toml``.
 
@@ -399,6 +404,12 @@ def simulate_living_study(
         the joint's prior, such as ``{"stiffness": {"mean": 1.1, "sd": 0.45}}``).
     name : str
         The manifest's ``name``.
+    emg : EmgSimulation, optional
+        EMG channels in the living condition's trials (:mod:`inertiafit.simulate.emg`): rest
+        noise, and a stretch reflex (burst and torque) in the fast trials it chooses. Its
+        trials name their channels (``emg = [...]``), the manifest gets ``[emg] unit = "V"``
+        and ``truth.toml`` an ``[emg]`` table with every reflex. Default None: no EMG, the
+        files exactly as without the option.
 
     Returns
     -------
@@ -476,6 +487,9 @@ def simulate_living_study(
             f"axis_tilt = {toml_value(tilt)}",
             "",
         ]
+    if emg is not None:
+        lines += emg_manifest_lines()
+    reflexes: dict[str, Reflex] = {}
 
     # Per condition and posture: its seed and its trials (kind, speed, motion, file name).
     plans: list[tuple[np.random.SeedSequence, Mounting, str, list[_Planned]]] = []
@@ -511,6 +525,20 @@ def simulate_living_study(
         for (kind, speed, trial_motion, filename), tseed in zip(
             plan, cseed.spawn(len(plan)), strict=True
         ):
+            trial_noise = quasi_static_noise if kind != "fast" and quasi_static_noise else noise
+            extra = passive_truth.torque if mounting is whole else None
+            channels, extra, reflex = emg_plan(
+                emg if mounting is whole else None,
+                tseed,
+                filename,
+                kind,
+                trial_motion,
+                rate,
+                trial_noise,
+                extra,
+            )
+            if reflex is not None:
+                reflexes[filename] = reflex
             trial = simulate_trial(
                 inertia=i_total,
                 gravity_moment=_tilt_factor(tilt) * mg_total,
@@ -520,11 +548,11 @@ def simulate_living_study(
                 offset=offset,
                 rng=np.random.default_rng(tseed),
                 rate=rate,
-                noise=quasi_static_noise if kind != "fast" and quasi_static_noise else noise,
+                noise=trial_noise,
                 motion=trial_motion,
                 source=filename,
                 sampling=sampling,
-                extra_torque=passive_truth.torque if mounting is whole else None,
+                extra_torque=extra,
             )
             write_trial_csv(
                 data / filename,
@@ -532,13 +560,17 @@ def simulate_living_study(
                 angle_unit=angle_unit,
                 torque_unit=torque_unit,
                 time_unit=time_unit,
+                emg=channels(trial["time"].values) if channels is not None else None,
             )
+            own = []
+            if emg is not None and channels is not None:
+                own = [f"emg = {toml_value(list(emg.muscles))}"]
             lines += trial_entry(
                 filename,
                 mounting.bodies,
                 kind,
                 speed if kind == "fast" else None,
-                extra=[f"posture = {toml_value(p)}"],
+                extra=[f"posture = {toml_value(p)}", *own],
             )
 
     manifest = out / "study.toml"
@@ -552,6 +584,8 @@ def simulate_living_study(
             f"axis_tilt = {toml_value(tilt)}",
             "",
         ]
+    if emg is not None:
+        text += emg_truth_lines(emg, reflexes)
     (out / "truth.toml").write_text("\n".join(text), encoding="utf-8")
     return manifest
 

@@ -16,10 +16,20 @@ import numpy as np
 from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY
+from inertiafit.simulate.emg import EmgSimulation, Reflex, trial_emg
+from inertiafit.simulate.emg import truth_lines as emg_truth_lines
 from inertiafit.simulate.files import VELOCITY_UNITS, check_units, toml_value, write_trial_csv
 from inertiafit.simulate.signals import Body, Motion, Noise, simulate_trial
 
-__all__ = ["condition_totals", "manifest_head", "simulate_study", "trial_entry", "truth_lines"]
+__all__ = [
+    "condition_totals",
+    "emg_manifest_lines",
+    "emg_plan",
+    "manifest_head",
+    "simulate_study",
+    "trial_entry",
+    "truth_lines",
+]
 
 
 #: Keys of a condition given as a mapping.
@@ -234,6 +244,7 @@ def simulate_study(
     priors: Mapping[str, str | Mapping[str, Any]] | None = None,
     name: str = "Simulated study",
     measured: Mapping[str, Mapping[str, float | Sequence[float]]] | None = None,
+    emg: EmgSimulation | None = None,
 ) -> Path:
     """Write a simulated study: one CSV per trial and a ``study.toml`` manifest.
 
@@ -298,6 +309,11 @@ def simulate_study(
         the measurement's SD, and the reading written is the true value plus a seeded Gaussian
         error of that SD (a simulated scale is as honest as a real one); a pair ``(value,
         sd)`` is written exactly as given. ``truth.toml`` keeps the true values.
+    emg : EmgSimulation, optional
+        EMG channels in every trial (:mod:`inertiafit.simulate.emg`): rest noise, and a
+        stretch reflex (burst and torque) in the fast trials it chooses. The manifest gets an
+        ``[emg]`` table (``columns``, ``unit = "V"``), ``truth.toml`` an ``[emg]`` table with
+        every reflex. Default None: no EMG, the files exactly as without the option.
 
     Returns
     -------
@@ -337,6 +353,9 @@ def simulate_study(
         torque_unit=torque_unit,
         time_unit=time_unit,
     )
+    if emg is not None:
+        lines += emg_manifest_lines(emg.muscles)
+    reflexes: dict[str, Reflex] = {}
 
     for label, mounting, cseed in zip(labels, mountings, condition_seeds, strict=True):
         i_total, mg_total = condition_totals(mounting, truth, gravity)
@@ -347,6 +366,14 @@ def simulate_study(
             for k in range(trials_per_speed)
         ]
         for (kind, speed, filename), tseed in zip(plan, cseed.spawn(len(plan)), strict=True):
+            trial_noise = (
+                quasi_static_noise if kind == "quasi-static" and quasi_static_noise else noise
+            )
+            channels, extra, reflex = emg_plan(
+                emg, tseed, filename, kind, motion, rate, trial_noise, None
+            )
+            if reflex is not None:
+                reflexes[filename] = reflex
             trial = simulate_trial(
                 inertia=i_total,
                 gravity_moment=mg_total,
@@ -356,12 +383,11 @@ def simulate_study(
                 offset=offset,
                 rng=np.random.default_rng(tseed),
                 rate=rate,
-                noise=quasi_static_noise
-                if kind == "quasi-static" and quasi_static_noise
-                else noise,
+                noise=trial_noise,
                 motion=motion,
                 source=filename,
                 sampling=sampling,
+                extra_torque=extra,
             )
             write_trial_csv(
                 data / filename,
@@ -369,6 +395,7 @@ def simulate_study(
                 angle_unit=angle_unit,
                 torque_unit=torque_unit,
                 time_unit=time_unit,
+                emg=channels(trial["time"].values) if channels is not None else None,
             )
             lines += trial_entry(
                 filename,
@@ -381,8 +408,49 @@ def simulate_study(
     manifest = out / "study.toml"
     manifest.write_text("\n".join(lines), encoding="utf-8")
     truth_text = truth_lines(truth, mountings, labels, gravity, phi, offset, noise or Noise())
+    if emg is not None:
+        truth_text += emg_truth_lines(emg, reflexes)
     (out / "truth.toml").write_text("\n".join(truth_text), encoding="utf-8")
     return manifest
+
+
+def emg_manifest_lines(columns: Sequence[str] = ()) -> list[str]:
+    """The manifest's ``[emg]`` table of a simulated study, in volts.
+
+    ``columns`` when every trial has the channels; else each trial names its own.
+    """
+    lines = ["[emg]"]
+    if columns:
+        lines.append(f"columns = {toml_value(list(columns))}")
+    return [*lines, 'unit = "V"', ""]
+
+
+def emg_plan(
+    emg: EmgSimulation | None,
+    seed: np.random.SeedSequence,
+    filename: str,
+    kind: str,
+    motion: Motion | None,
+    rate: float,
+    noise: Noise | None,
+    extra: Any,
+) -> tuple[Any, Any, Reflex | None]:
+    """:func:`~inertiafit.simulate.emg.trial_emg` of a trial, or no EMG (``emg`` None)."""
+    if emg is None:
+        return None, extra, None
+    motion = Motion() if motion is None else motion
+    return trial_emg(
+        emg,
+        seed,
+        filename,
+        kind=kind,
+        start=motion.start,
+        end=motion.end,
+        rest=motion.rest,
+        rate=rate,
+        lag=(noise or Noise()).lag,
+        extra_torque=extra,
+    )
 
 
 def truth_lines(

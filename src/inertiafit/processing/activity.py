@@ -1,0 +1,283 @@
+"""The EMG activity check of a study: rest levels, and each trial's active stretches.
+
+:func:`~inertiafit.processing.study.process_study` uses it for every trial read with EMG
+channels (``docs/processing.md``, "The EMG check in a study"):
+
+- the **rest level** of each muscle (:func:`study_rest_levels`): from the study's
+  ``kind = "rest"`` trials (the envelope's mean and SD over each, half a window trimmed at
+  each end, pooled), else from the quietest :data:`QUIET_SPAN` seconds of the quasi-static
+  trials (said in the warnings);
+- a **fast trial** (:func:`check_fast`) is checked over its analysis windows (the
+  acceleration window; the deceleration window of a living condition) and a reflex window
+  :data:`REFLEX_WINDOW` after its motion starts: an active stretch of
+  :func:`~inertiafit.processing.emg.emg_activity` that overlaps one of them makes the trial
+  active;
+- a **quasi-static sweep** (:func:`check_sweep`) over its whole length; its active stretches,
+  widened by :data:`SWEEP_MARGIN`, are what ``on_activity = "exclude"`` cuts out of its fit.
+
+Every check gives the trial's ``emg_peak_ratio``: the largest envelope over the rest level,
+over the muscles, in the windows checked.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from inertiafit.errors import InputError
+from inertiafit.io.emg import EmgSettings
+from inertiafit.processing.emg import emg_activity, emg_envelope, rest_level
+from inertiafit.processing.filtering import source_of
+
+__all__ = [
+    "MOTION_ONSET",
+    "QUIET_SPAN",
+    "REFLEX_WINDOW",
+    "SWEEP_MARGIN",
+    "ActivityCheck",
+    "RestLevels",
+    "check_fast",
+    "check_sweep",
+    "motion_onset",
+    "study_rest_levels",
+]
+
+#: The reflex window (s after the motion starts): short- and medium-latency stretch reflexes
+#: of the arm and leg muscles answer 20-100 ms after a stretch starts; 150 ms leaves room for
+#: the envelope's half window and a late onset.
+REFLEX_WINDOW = (0.020, 0.150)
+#: The motion starts where the filtered speed first exceeds this fraction of its peak.
+MOTION_ONSET = 0.05
+#: Length (s) of the quietest stretch of the quasi-static trials taken as rest when the study
+#: has no rest trials.
+QUIET_SPAN = 2.0
+#: Margins (s, before and after) of an active stretch cut out of a quasi-static sweep: the
+#: envelope finds an onset within half a window; a reflex's torque lasts some 0.2 s after its
+#: EMG ends (electromechanical delay and relaxation).
+SWEEP_MARGIN = (0.05, 0.25)
+
+
+@dataclass(frozen=True)
+class RestLevels:
+    """Each muscle's rest level ``(mean, sd)`` of the envelope (V), and where it came from."""
+
+    levels: dict[str, tuple[float, float]]
+    sources: dict[str, str]
+
+    def of(self, muscles: Iterable[str], where: str) -> dict[str, tuple[float, float]]:
+        """The levels of ``muscles``; a muscle without one is an error naming ``where``."""
+        out = {}
+        for m in muscles:
+            if m not in self.levels:
+                raise InputError(
+                    f"{where}: EMG channel {m!r} has no rest level: no rest or quasi-static "
+                    "trial of the study records it"
+                )
+            out[m] = self.levels[m]
+        return out
+
+
+@dataclass(frozen=True)
+class ActivityCheck:
+    """One trial's check: its active stretches in the windows checked, and its peak ratio.
+
+    ``stretches`` has the columns of :func:`~inertiafit.processing.emg.emg_activity`;
+    ``windows`` are the spans checked (s); ``peak_ratio`` is the largest envelope over rest
+    in them.
+    """
+
+    stretches: pd.DataFrame
+    windows: tuple[tuple[float, float], ...]
+    peak_ratio: float
+
+    @property
+    def active(self) -> bool:
+        """Whether a muscle is active in the windows checked."""
+        return not self.stretches.empty
+
+    def describe(self) -> str:
+        """``EMG active: triceps 0.262-0.331 s (14.2 x rest)[; ...]``."""
+        parts = [
+            f"{r.muscle} {r.start:.3f}-{r.end:.3f} s ({r.peak_ratio:.1f} x rest)"
+            for r in self.stretches.itertuples()
+        ]
+        return "EMG active: " + ", ".join(parts)
+
+    def cut(self, time: np.ndarray) -> np.ndarray:
+        """The samples kept when the active stretches (with :data:`SWEEP_MARGIN`) are cut."""
+        keep = np.ones(len(time), dtype=bool)
+        before, after = SWEEP_MARGIN
+        for r in self.stretches.itertuples():
+            keep &= ~((time >= r.start - before) & (time <= r.end + after))
+        return keep
+
+
+def _envelopes(
+    ds: xr.Dataset, settings: EmgSettings, muscles: Sequence[str] | None = None
+) -> xr.DataArray:
+    return emg_envelope(ds, band=settings.band, rms_window=settings.rms_window, muscles=muscles)
+
+
+def study_rest_levels(
+    rest_trials: Sequence[xr.Dataset],
+    sweeps: Sequence[xr.Dataset],
+    settings: EmgSettings,
+    *,
+    base_dir: str = "",
+) -> tuple[RestLevels, list[str]]:
+    """The rest level of every muscle a study's rest or quasi-static trials record.
+
+    Parameters
+    ----------
+    rest_trials, sweeps : sequence of Trial
+        The study's rest trials and quasi-static trials (those without EMG are ignored).
+    settings : EmgSettings
+        The study's ``[emg]`` table.
+
+    Returns
+    -------
+    RestLevels, list of str
+        The levels, and a line per muscle whose level comes from a quasi-static trial (for
+        the warnings).
+
+    Notes
+    -----
+    From rest trials: each trial's envelope mean and SD (:func:`rest_level`), pooled as one
+    population (the mean of the means; the SD from the mean of the variances plus the
+    variance of the means). From quasi-static trials: the :data:`QUIET_SPAN` seconds of the
+    lowest mean envelope over all of them (the trial shorter than it: its whole length).
+    """
+    levels: dict[str, tuple[float, float]] = {}
+    sources: dict[str, str] = {}
+    notes: list[str] = []
+    per_muscle: dict[str, list[tuple[float, float]]] = {}
+    for ds in rest_trials:
+        if "emg" not in ds:
+            continue
+        for m, level in rest_level(_envelopes(ds, settings)).items():
+            per_muscle.setdefault(m, []).append(level)
+    for m, values in per_muscle.items():
+        means = np.array([v[0] for v in values])
+        sds = np.array([v[1] for v in values])
+        levels[m] = (float(means.mean()), float(math.sqrt(np.mean(sds**2) + np.var(means))))
+        sources[m] = f"{len(values)} rest trial{'s' if len(values) > 1 else ''}"
+    quiet: dict[str, tuple[float, float, float, str, float, float]] = {}
+    for ds in sweeps:
+        if "emg" not in ds:
+            continue
+        env = _envelopes(ds, settings)
+        time = np.asarray(env["time"].values)
+        rate = 1.0 / float(np.median(np.diff(time)))
+        half = round(settings.rms_window * rate / 2)
+        span = max(2, min(round(QUIET_SPAN * rate), len(time) - 2 * half))
+        for name, row in zip(env["muscle"].values, env.values, strict=True):
+            m = str(name)
+            if m in levels:
+                continue
+            inner = row[half : len(row) - half] if len(row) > 2 * half + span else row
+            offset = half if len(row) > 2 * half + span else 0
+            csum = np.concatenate(([0.0], np.cumsum(inner)))
+            means = (csum[span:] - csum[:-span]) / span
+            k = int(np.argmin(means))
+            piece = inner[k : k + span]
+            candidate = (
+                float(piece.mean()),
+                float(piece.std()),
+                float(means[k]),
+                source_of(ds),
+                float(time[offset + k]),
+                float(time[offset + k + span - 1]),
+            )
+            if m not in quiet or candidate[2] < quiet[m][2]:
+                quiet[m] = candidate
+    for m, (mean, sd, _, source, start, end) in quiet.items():
+        levels[m] = (mean, sd)
+        name = source.removeprefix(base_dir).lstrip("/")
+        sources[m] = f"the quietest {end - start:.3g} s of {name} ({start:.2f}-{end:.2f} s)"
+        notes.append(
+            f"EMG channel {m!r}: no rest trial records it; its rest level is {sources[m]}"
+        )
+    return RestLevels(levels, sources), notes
+
+
+def _peak_ratio(
+    env: xr.DataArray, levels: dict[str, tuple[float, float]], windows: Sequence[tuple]
+) -> float:
+    time = np.asarray(env["time"].values)
+    inside = np.zeros(len(time), dtype=bool)
+    for a, b in windows:
+        inside |= (time >= a) & (time <= b)
+    if not inside.any():
+        return math.nan
+    return max(
+        float(row[inside].max()) / levels[str(m)][0]
+        for m, row in zip(env["muscle"].values, env.values, strict=True)
+    )
+
+
+def _overlapping(table: pd.DataFrame, windows: Sequence[tuple[float, float]]) -> pd.DataFrame:
+    if table.empty:
+        return table
+    hit = np.zeros(len(table), dtype=bool)
+    for a, b in windows:
+        hit |= (table["end"].to_numpy() >= a) & (table["start"].to_numpy() <= b)
+    return table[hit].reset_index(drop=True)
+
+
+def _check(
+    ds: xr.Dataset,
+    rest: RestLevels,
+    settings: EmgSettings,
+    windows: Sequence[tuple[float, float]],
+) -> ActivityCheck:
+    muscles = [str(m) for m in ds["emg"]["muscle"].values]
+    levels = rest.of(muscles, source_of(ds))
+    table = emg_activity(ds, rest=levels, settings=settings)
+    env = _envelopes(ds, settings)
+    return ActivityCheck(
+        stretches=_overlapping(table, windows),
+        windows=tuple(windows),
+        peak_ratio=_peak_ratio(env, levels, windows),
+    )
+
+
+def motion_onset(time: np.ndarray, velocity: np.ndarray) -> float:
+    """When the motion starts: the filtered speed first above :data:`MOTION_ONSET` of its peak."""
+    speed = np.abs(np.asarray(velocity, dtype=np.float64))
+    first = int(np.argmax(speed > MOTION_ONSET * float(speed.max())))
+    return float(time[first])
+
+
+def check_fast(
+    ds: xr.Dataset,
+    rest: RestLevels,
+    settings: EmgSettings,
+    *,
+    window: tuple[float, float],
+    deceleration: tuple[float, float] | None,
+    velocity: np.ndarray | None = None,
+) -> ActivityCheck:
+    """A fast trial's check over its analysis windows and its reflex window.
+
+    ``velocity`` is the filtered velocity the inertia was estimated from (default the
+    recorded one): the motion's onset is where its speed first exceeds :data:`MOTION_ONSET`
+    of its peak.
+    """
+    time = np.asarray(ds["time"].values)
+    v = ds["velocity"].values if velocity is None else velocity
+    onset = motion_onset(time, v)
+    windows = [window, (onset + REFLEX_WINDOW[0], onset + REFLEX_WINDOW[1])]
+    if deceleration is not None:
+        windows.append(deceleration)
+    return _check(ds, rest, settings, windows)
+
+
+def check_sweep(ds: xr.Dataset, rest: RestLevels, settings: EmgSettings) -> ActivityCheck:
+    """A quasi-static sweep's check over its whole length."""
+    time = np.asarray(ds["time"].values)
+    return _check(ds, rest, settings, [(float(time[0]), float(time[-1]))])
