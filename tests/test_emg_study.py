@@ -148,6 +148,7 @@ def test_reflex_trials_are_excluded_with_muscle_times_and_ratio(processed):
     assert set(processed.trials["file"]) == set(clean["file"]) | {"data/A_quasistatic.csv"}
     assert set(processed.sensitivity.index) == set(clean["file"])
     assert sum("trial excluded: EMG active: triceps" in w for w in processed.warnings) == 2
+    assert sum("2 of 5 fast trials with EMG excluded" in w for w in processed.warnings) == 1
     # no rest trials: the rest level is the quasi-static trial's quietest stretch, said once
     said = [w for w in processed.warnings if "quietest" in w]
     assert len(said) == 2

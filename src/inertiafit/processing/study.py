@@ -514,6 +514,8 @@ def process_study(
             _trace(spec.condition, number, ds["time"].values, est, float(spec.speed or 0.0))
         )
     run.check_left(used_fast, "fast")
+    if emg is not None:
+        notes.extend(emg.summary(run.skipped))
     _check_lags(study, fast_estimates, rows, notes)
     sensitivity = _sensitivity_frame(
         {
@@ -891,6 +893,20 @@ class _EmgCheck:
         )
         notes.extend(f"{study.path}: {line}" for line in lines)
         return cls(study, settings, rest)
+
+    def summary(self, left: dict[int, dict]) -> list[str]:
+        """One line counting the fast trials excluded for muscle activity (none: no line)."""
+        fast = [t for t in self.study.trials if t.kind == "fast" and t.index in self.peak]
+        out = [t for t in fast if left.get(t.index, {}).get("status") == STATUS_EXCLUDED]
+        if not out:
+            return []
+        return [
+            (
+                f"{self.study.path}: {len(out)} of {len(fast)} fast trials with EMG excluded for "
+                'muscle activity ([emg] on_activity = "exclude"); trials.csv keeps them with '
+                'status "excluded" and the reason in flags'
+            )
+        ]
 
     def stop(self, spec: TrialSpec, check: ActivityCheck) -> None:
         """With ``on_activity = "stop"``, an active trial refuses the study in one line."""
