@@ -57,7 +57,7 @@ def _fit_forearm(processed, seed: int, true_i: float) -> dict:
 
 
 def one_study(
-    seed: int, *, reflexes: int = 1, posterior: bool = True, quasi_static_speed: float = 1.0
+    seed: int, reflexes: int = 1, *, posterior: bool = True, quasi_static_speed: float = 1.0
 ) -> dict:
     """Simulate one living study with EMG; what the check excluded, and the forearm's I.
 

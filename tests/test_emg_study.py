@@ -22,7 +22,12 @@ import pytest
 
 from inertiafit.errors import InputError
 from inertiafit.processing.activity import REFLEX_WINDOW, motion_onset
-from inertiafit.processing.study import EMG_TRIAL_COLUMNS, TRIAL_COLUMNS, process_study
+from inertiafit.processing.study import (
+    EMG_TRACE_COLUMNS,
+    EMG_TRIAL_COLUMNS,
+    TRIAL_COLUMNS,
+    process_study,
+)
 from inertiafit.simulate import EmgSimulation, Motion, simulate_study
 from inertiafit.simulate.emg import EMD, TWITCH_TIME
 
@@ -240,3 +245,30 @@ def test_the_benchmark_excludes_the_reflex_and_nothing_else():
         assert min(r["reflex_ratio"]) > 8
         assert max(r["clean_ratio"]) < 2
         assert math.isfinite(r["reflex_inertia"][0])
+
+
+def test_emg_traces_hold_each_fast_trial_around_its_windows(processed):
+    traces = processed.emg_traces
+    assert list(traces.columns) == EMG_TRACE_COLUMNS
+    assert traces["trial"].nunique() == 5
+    status = traces.groupby("trial")["status"].first()
+    assert sorted(status[status == "excluded"].index.str.removeprefix("data/")) == list(REFLEX)
+    active = traces[traces["active"] == 1]
+    assert set(active["trial"].str.removeprefix("data/")) == set(REFLEX)
+    assert set(active["muscle"]) == {"triceps"}
+    # the bursts start 35-60 ms after the stretch: active within the reflex window, ± half a window
+    assert active["time"].between(0.0, REFLEX_WINDOW[1] + 0.03).all()
+    thresholds = traces.groupby("muscle")["threshold"].agg(["min", "max"])
+    assert (thresholds["min"] == thresholds["max"]).all()
+    assert thresholds["min"].between(1.1, 1.6).all()  # rest mean + 3 SD over the mean
+
+
+def test_the_emg_figure_shades_the_excluded_trials_active_stretches(processed):
+    from inertiafit.report.plots import plot_emg_envelopes
+
+    fig = plot_emg_envelopes(processed.emg_traces, title="bar")
+    biceps, triceps = fig.axes
+    assert biceps.get_ylabel().startswith("biceps")
+    assert len(biceps.patches) == 0
+    assert len(triceps.patches) == 2  # one shaded stretch per excluded trial
+    assert len(triceps.lines) == 5 + 2  # five trials, the threshold and the rest level

@@ -24,7 +24,12 @@ from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior, open_posterior
 from inertiafit.processing.living import living_tables_from_dict
 from inertiafit.processing.speed import speed_effect
-from inertiafit.processing.study import TRACE_COLUMNS, TRIAL_COLUMNS, usable_trials
+from inertiafit.processing.study import (
+    EMG_TRACE_COLUMNS,
+    TRACE_COLUMNS,
+    TRIAL_COLUMNS,
+    usable_trials,
+)
 from inertiafit.report.outputs import DATA_FILES, write_outputs
 from inertiafit.report.result import Result, make_result
 
@@ -103,7 +108,12 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
     trials["flags"] = trials["flags"].fillna("").astype(str)
     used = usable_trials(trials)
     traces = _read_table(folder / "traces.csv", TRACE_COLUMNS, {"condition": str})
-    check_as_written(folder, ("posterior.nc", "trials.csv", "traces.csv"))
+    emg_traces = _read_table(
+        folder / "emg_traces.csv",
+        EMG_TRACE_COLUMNS,
+        {"condition": str, "trial": str, "muscle": str, "status": str},
+    )
+    check_as_written(folder, ("posterior.nc", "trials.csv", "traces.csv", "emg_traces.csv"))
     warnings = list(inputs.get("warnings", []))
     baselines = paper_baselines(trials, conditions, priors, gravity=gravity, notes=warnings)
     return make_result(
@@ -121,6 +131,7 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
         warnings=warnings,
         manifest=inputs.get("manifest", ""),
         living=living_tables_from_dict(inputs.get("living", {})),
+        emg_traces=emg_traces,
     )
 
 

@@ -222,6 +222,7 @@ def analyse_study(
         warnings=notes,
         manifest=str(study.path),
         living=living,
+        emg_traces=processed.emg_traces,
     )
 
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -39,6 +39,7 @@ __all__ = [
     "QUIET_SPAN",
     "REFLEX_WINDOW",
     "SWEEP_MARGIN",
+    "TRACE_POINTS",
     "ActivityCheck",
     "RestLevels",
     "check_fast",
@@ -60,6 +61,8 @@ QUIET_SPAN = 2.0
 #: envelope finds an onset within half a window; a reflex's torque lasts some 0.2 s after its
 #: EMG ends (electromechanical delay and relaxation).
 SWEEP_MARGIN = (0.05, 0.25)
+#: Points kept per muscle of a fast trial's envelope in the figure traces.
+TRACE_POINTS = 400
 
 
 @dataclass(frozen=True)
@@ -94,6 +97,10 @@ class ActivityCheck:
     stretches: pd.DataFrame
     windows: tuple[tuple[float, float], ...]
     peak_ratio: float
+    envelope: xr.DataArray | None = field(default=None, repr=False, compare=False)
+    levels: dict[str, tuple[float, float]] = field(default_factory=dict, repr=False)
+    thresholds: dict[str, float] = field(default_factory=dict, repr=False)
+    onset: float = math.nan
 
     @property
     def active(self) -> bool:
@@ -107,6 +114,43 @@ class ActivityCheck:
             for r in self.stretches.itertuples()
         ]
         return "EMG active: " + ", ".join(parts)
+
+    def trace(
+        self, *, before: float = 0.1, after: float = 0.1, points: int = TRACE_POINTS
+    ) -> dict:
+        """The envelope over the rest level around the windows checked, for a figure.
+
+        Per muscle, from ``before`` s ahead of the first window to ``after`` s past the last,
+        at most ``points`` samples (every n-th): arrays ``muscle``, ``time`` (s after the
+        motion's onset, or the trial's time when it has none), ``ratio`` (envelope over the
+        rest mean), ``threshold`` (the threshold over the rest mean) and ``active`` (inside an
+        active stretch that counts).
+        """
+        if self.envelope is None:
+            return {k: np.array([]) for k in ("muscle", "time", "ratio", "threshold", "active")}
+        time = np.asarray(self.envelope["time"].values)
+        lo = min(a for a, _ in self.windows) - before
+        hi = max(b for _, b in self.windows) + after
+        inside = np.flatnonzero((time >= lo) & (time <= hi))
+        step = max(1, len(inside) // points)
+        idx = inside[::step]
+        zero = self.onset if math.isfinite(self.onset) else 0.0
+        parts: dict[str, list] = {
+            k: [] for k in ("muscle", "time", "ratio", "threshold", "active")
+        }
+        for name, row in zip(self.envelope["muscle"].values, self.envelope.values, strict=True):
+            m = str(name)
+            mean = self.levels[m][0]
+            active = np.zeros(len(idx), dtype=bool)
+            for r in self.stretches.itertuples():
+                if r.muscle == m:
+                    active |= (time[idx] >= r.start) & (time[idx] <= r.end)
+            parts["muscle"].append(np.full(len(idx), m, dtype=object))
+            parts["time"].append(time[idx] - zero)
+            parts["ratio"].append(row[idx] / mean)
+            parts["threshold"].append(np.full(len(idx), self.thresholds[m] / mean))
+            parts["active"].append(active)
+        return {k: np.concatenate(v) for k, v in parts.items()}
 
     def cut(self, time: np.ndarray) -> np.ndarray:
         """The samples kept when the active stretches (with :data:`SWEEP_MARGIN`) are cut."""
@@ -234,6 +278,7 @@ def _check(
     rest: RestLevels,
     settings: EmgSettings,
     windows: Sequence[tuple[float, float]],
+    onset: float = math.nan,
 ) -> ActivityCheck:
     muscles = [str(m) for m in ds["emg"]["muscle"].values]
     levels = rest.of(muscles, source_of(ds))
@@ -243,6 +288,10 @@ def _check(
         stretches=_overlapping(table, windows),
         windows=tuple(windows),
         peak_ratio=_peak_ratio(env, levels, windows),
+        envelope=env,
+        levels=levels,
+        thresholds={str(k): float(v) for k, v in table.attrs["threshold"].items()},
+        onset=onset,
     )
 
 
@@ -274,7 +323,7 @@ def check_fast(
     windows = [window, (onset + REFLEX_WINDOW[0], onset + REFLEX_WINDOW[1])]
     if deceleration is not None:
         windows.append(deceleration)
-    return _check(ds, rest, settings, windows)
+    return _check(ds, rest, settings, windows, onset)
 
 
 def check_sweep(ds: xr.Dataset, rest: RestLevels, settings: EmgSettings) -> ActivityCheck:

@@ -57,6 +57,7 @@ from inertiafit.processing.plausibility import fast_trial_flags
 from inertiafit.stats import inverse_variance_mean
 
 __all__ = [
+    "EMG_TRACE_COLUMNS",
     "EMG_TRIAL_COLUMNS",
     "LIVING_ROW_FLAG",
     "LIVING_TRIAL_COLUMNS",
@@ -101,6 +102,20 @@ LIVING_TRIAL_COLUMNS = ["posture", "damping", "damping_se"]
 #: rest level, over the muscles, in the windows checked (a fast trial's analysis and reflex
 #: windows, a quasi-static sweep's length; empty for a trial without EMG).
 EMG_TRIAL_COLUMNS = ["emg_peak_ratio"]
+#: Columns of :attr:`ProcessedStudy.emg_traces` (``emg_traces.csv``): each fast trial's EMG
+#: envelope over its rest level around the windows checked, for figures. ``time`` is in s
+#: after the motion's onset; ``active`` (0 or 1) marks an active stretch that counts;
+#: ``status`` is the trial's (``ok``, ``flagged`` or ``excluded``).
+EMG_TRACE_COLUMNS = [
+    "condition",
+    "trial",
+    "muscle",
+    "time",
+    "ratio",
+    "threshold",
+    "active",
+    "status",
+]
 #: The flag of a living condition's quasi-static row: what its gravity moment is.
 LIVING_ROW_FLAG = (
     "living body: gravity_moment here is the rigid fit of this sweep alone, which absorbs the "
@@ -175,6 +190,9 @@ class ProcessedStudy:
     damping : (float, float) or None
         The living joint's viscous damping ``b`` (N m s/rad) and its SE: the
         inverse-variance mean over the living conditions' fast trials.
+    emg_traces : pandas.DataFrame
+        The fast trials' EMG envelopes over their rest levels, columns
+        :data:`EMG_TRACE_COLUMNS`, for figures; empty without EMG.
     """
 
     study: Study
@@ -188,6 +206,9 @@ class ProcessedStudy:
     living: LivingStatics | None = None
     living_coupling: dict[str, tuple[float, float]] = field(default_factory=dict)
     damping: tuple[float, float] | None = None
+    emg_traces: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=EMG_TRACE_COLUMNS)
+    )
 
     @property
     def all_trials(self) -> pd.DataFrame:
@@ -565,6 +586,7 @@ def process_study(
         living=statics,
         living_coupling=living_coupling,
         damping=damping,
+        emg_traces=emg.traces() if emg is not None else pd.DataFrame(columns=EMG_TRACE_COLUMNS),
     )
 
 
@@ -871,6 +893,7 @@ class _EmgCheck:
     settings: EmgSettings
     rest: RestLevels
     peak: dict[int, float] = field(default_factory=dict)  # emg_peak_ratio by manifest index
+    checks: list[tuple[TrialSpec, ActivityCheck]] = field(default_factory=list)  # fast trials
 
     @property
     def action(self) -> str:
@@ -908,6 +931,29 @@ class _EmgCheck:
             )
         ]
 
+    def traces(self) -> pd.DataFrame:
+        """The fast trials' envelopes for figures (:data:`EMG_TRACE_COLUMNS`)."""
+        status = {False: STATUS_OK, True: "flagged" if self.action == "flag" else STATUS_EXCLUDED}
+        parts = []
+        for spec, check in self.checks:
+            trace = check.trace()
+            n = len(trace["time"])
+            parts.append(
+                {
+                    "condition": np.full(n, spec.condition, dtype=object),
+                    "trial": np.full(n, _relative(spec.file, self.study.base_dir), dtype=object),
+                    **trace,
+                    "active": trace["active"].astype(int),
+                    "status": np.full(n, status[check.active], dtype=object),
+                }
+            )
+        if not parts:
+            return pd.DataFrame(columns=EMG_TRACE_COLUMNS)
+        return pd.DataFrame(
+            {c: np.concatenate([p[c] for p in parts]) for c in EMG_TRACE_COLUMNS},
+            columns=EMG_TRACE_COLUMNS,
+        )
+
     def stop(self, spec: TrialSpec, check: ActivityCheck) -> None:
         """With ``on_activity = "stop"``, an active trial refuses the study in one line."""
         if check.active and self.action == "stop":
@@ -930,6 +976,7 @@ class _EmgCheck:
             velocity=est.velocity,
         )
         self.peak[spec.index] = check.peak_ratio
+        self.checks.append((spec, check))
         return check
 
     def sweep(

@@ -129,6 +129,19 @@ def figure_records(result: Result) -> list[FigureRecord]:
                     "the detected uniform-acceleration window",
                 )
             )
+        emg = result.emg_traces
+        for cond, rows in emg.groupby("condition", sort=False) if len(emg) else ():
+            excluded = rows.loc[rows["status"] == "excluded", "trial"].nunique()
+            add(
+                FigureRecord(
+                    f"emg-{cond}",
+                    functools.partial(plots.plot_emg_envelopes, rows, title=str(cond)),
+                    "Trials",
+                    f"{cond}: EMG envelopes of the fast trials over the rest level, the "
+                    f"threshold dashed; {excluded} trial(s) excluded for muscle activity, "
+                    "their active stretches shaded",
+                )
+            )
         used = usable_trials(result.trials)  # a skipped trial has no inertia to draw
         fast = used[used["kind"] == "fast"]
         if len(fast):

@@ -16,7 +16,7 @@ import pandas as pd
 
 from inertiafit.inference.priors import Prior
 from inertiafit.posterior import Posterior
-from inertiafit.processing.study import TRACE_COLUMNS, TRIAL_COLUMNS
+from inertiafit.processing.study import EMG_TRACE_COLUMNS, TRACE_COLUMNS, TRIAL_COLUMNS
 from inertiafit.report.comparison import FIT_COLUMNS, STUDY_COLUMNS, comparison_table
 
 __all__ = ["Result", "make_result", "traces_by_condition"]
@@ -62,6 +62,9 @@ class Result:
     living : dict of str to pandas.DataFrame
         A living body's joint (:func:`~inertiafit.processing.living.living_tables`):
         ``passive_parameters`` and ``passive_curve``; empty for a rigid study.
+    emg_traces : pandas.DataFrame
+        The fast trials' EMG envelopes over their rest levels (columns
+        :data:`~inertiafit.processing.study.EMG_TRACE_COLUMNS`); empty without EMG.
     """
 
     name: str
@@ -79,6 +82,9 @@ class Result:
     warnings: tuple[str, ...]
     manifest: str
     living: dict[str, pd.DataFrame] = field(default_factory=dict)
+    emg_traces: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=EMG_TRACE_COLUMNS)
+    )
 
     def summary(self, hdi_prob: float | None = None) -> pd.DataFrame:
         """The posterior's summary; a living body's joint parameters as rows of that body.
@@ -164,6 +170,7 @@ def make_result(
     warnings: Sequence[str] = (),
     manifest: str = "",
     living: Mapping[str, pd.DataFrame] | None = None,
+    emg_traces: pd.DataFrame | None = None,
 ) -> Result:
     """Assemble a :class:`Result` and its comparison table (nothing else is computed)."""
     ideals_ = {k: dict(v) for k, v in (ideals or {}).items()}
@@ -193,6 +200,9 @@ def make_result(
         warnings=tuple(warnings),
         manifest=manifest,
         living=dict(living or {}),
+        emg_traces=emg_traces
+        if emg_traces is not None
+        else pd.DataFrame(columns=EMG_TRACE_COLUMNS),
     )
 
 

@@ -2,7 +2,8 @@
 
 One module per kind of figure: :mod:`~inertiafit.report.plots.trials` (fast trials, inertia by
 speed), :mod:`~inertiafit.report.plots.identification` (the identification curve),
-:mod:`~inertiafit.report.plots.diagnostics` (traces, rank plots) and
+:mod:`~inertiafit.report.plots.diagnostics` (traces, rank plots),
+:mod:`~inertiafit.report.plots.emg` (EMG envelopes against their thresholds) and
 :mod:`~inertiafit.report.plots.corner` (the joint corner plot). Posterior figures take a
 :class:`inertiafit.posterior.Posterior` (walkers are the ``chain`` dimension of its tree) and a
 body name. The house style, sizes and saving come from :mod:`inertiafit.plotting` and are
@@ -29,6 +30,7 @@ from inertiafit.plotting.style import (
 )
 from inertiafit.report.plots.corner import plot_joint_corner
 from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
+from inertiafit.report.plots.emg import plot_emg_envelopes
 from inertiafit.report.plots.identification import CURVE_PAIRS, plot_identification_curve
 from inertiafit.report.plots.living import plot_passive_curve
 from inertiafit.report.plots.trials import plot_fast_trials, plot_inertia_by_speed
@@ -46,6 +48,7 @@ __all__ = [
     "corner_figure",
     "figure_width",
     "new_figure",
+    "plot_emg_envelopes",
     "plot_fast_trials",
     "plot_identification_curve",
     "plot_inertia_by_speed",
