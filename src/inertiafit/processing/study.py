@@ -372,7 +372,10 @@ def process_study(
         :attr:`ProcessedStudy.skipped`, a line in the warnings), and the error is for a
         condition left without a usable quasi-static trial (no gravity model) or, when it
         has fast trials, without a usable fast one; it names the condition and the skipped
-        files.
+        files. With EMG: a muscle without a rest level, and, with ``[emg] on_activity =
+        "stop"``, the first active trial (its muscle, times and peak ratio), whatever
+        ``on_trial_error`` says; a condition whose fast trials were all excluded for muscle
+        activity is one error naming them.
 
     Notes
     -----
