@@ -17,12 +17,27 @@ an ``InputError`` naming the trial where the number cannot be:
   quasi-static trial signed opposite to the fast ones: +10 to +23 %) — a flag;
 - a gravity model that alone moves the inertia by more than :data:`GRAVITY_SHARE_MAX` of it (a
   quasi-static sweep of 2.5 deg) — an error naming the quasi-static trial and its sweep.
+
+And, over a condition's trials (before sampling):
+
+- a quasi-static trial that sweeps less than its fit needs: shorter than
+  :data:`~inertiafit.processing.gravity.MIN_RANGE` with ``M_g`` not told from zero (``M_g ±
+  2 SE`` reaches it; a living ankle's 1518 ± 3428 N m) — an error naming it
+  (:func:`check_quasi_static_sweep`);
+- quasi-static trials of one condition whose ``M_g`` differ by more than
+  :data:`GRAVITY_SCATTER_MAX` standard errors — an error naming each
+  (:func:`gravity_scatter_message`);
+- negative inertias: the torque sign is advised only where the data support it — every fast
+  trial of the condition negative, or this trial's ``torque_sign`` other than that of its
+  positive siblings; otherwise following it would mix signs within the condition, and the
+  message says so (:func:`inertia_sign_checks`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
@@ -30,15 +45,20 @@ import xarray as xr
 from inertiafit.errors import InputError
 from inertiafit.processing.filtering import source_of
 from inertiafit.processing.gravity import MIN_RANGE, GravityFit
-from inertiafit.processing.inertia import InertiaEstimate
+from inertiafit.processing.inertia import NEGATIVE_SE, InertiaEstimate, torque_sign_hint
 from inertiafit.processing.window import MIN_SPEED_CHANGE, plateau_speed
 
 __all__ = [
+    "GRAVITY_SCATTER_MAX",
     "GRAVITY_SHARE_MAX",
     "SIGN_CORRELATION",
     "SPEED_TOLERANCE",
     "WINDOW_SPEED_CHANGE_MIN",
+    "SignVerdict",
+    "check_quasi_static_sweep",
     "fast_trial_flags",
+    "gravity_scatter_message",
+    "inertia_sign_checks",
 ]
 
 #: Largest relative difference between the measured plateau speed and the nominal ``speed``.
@@ -51,6 +71,9 @@ GRAVITY_SHARE_MAX = 0.25
 #: Correlation of torque and gravity model over the constant-speed stretch below which the
 #: torque is taken to run against the model (consistent trials of the simulator show > 0.9).
 SIGN_CORRELATION = -0.5
+#: Quasi-static trials of one condition whose ``M_g`` differ by more than this many standard
+#: errors (of the difference) are refused: one condition has one ``M_g``.
+GRAVITY_SCATTER_MAX = 5.0
 
 
 def fast_trial_flags(
@@ -173,3 +196,136 @@ def _sign_flags(
         "(torque_sign of one of them?)"
     )
     return [flag]
+
+
+def check_quasi_static_sweep(fit: GravityFit) -> GravityFit:
+    """Refuse a quasi-static trial whose sweep is too short to determine ``M_g``.
+
+    A sweep shorter than :data:`~inertiafit.processing.gravity.MIN_RANGE` (flagged by the
+    fit) whose ``M_g ± 2 SE`` reaches zero: sin, cos and the offset are not told apart, and the
+    ``M_g`` it gives (185 ± 700 N m for a 2.5-deg sweep of a 6.7 N m attachment) would reach
+    the evidence. A wide sweep with such an interval is a body nearly balanced on the axis,
+    and goes on. Returns ``fit``.
+    """
+    sweep = math.degrees(fit.angle_range)
+    if sweep >= MIN_RANGE or not 2 * fit.gravity_moment_se >= fit.gravity_moment:
+        return fit
+    raise InputError(
+        f"{fit.source}: angle: a quasi-static sweep of {sweep:.3g} deg gives M_g = "
+        f"{fit.gravity_moment:.3g} +- {fit.gravity_moment_se:.3g} N m, which it does not "
+        f"determine (the interval reaches 0); record the quasi-static trial over "
+        f"{MIN_RANGE:g} deg or more (the fast trials' range)"
+    )
+
+
+def gravity_scatter_message(fits: Sequence[GravityFit], condition: str) -> str | None:
+    """One line when a condition's quasi-static ``M_g`` disagree far beyond their errors.
+
+    Each fit is compared with the inverse-variance mean of the others; the largest difference
+    over its standard error beyond :data:`GRAVITY_SCATTER_MAX` is a line naming every fit
+    with its ``M_g ± SE`` (``None`` when they agree, or for one fit). Their inverse-variance
+    combination would otherwise be precise and wrong.
+    """
+    if len(fits) < 2:
+        return None
+    values = np.array([f.gravity_moment for f in fits], dtype=np.float64)
+    ses = np.array([f.gravity_moment_se for f in fits], dtype=np.float64)
+    if not np.all(ses > 0):
+        return None
+    worst = 0.0
+    for i in range(len(fits)):
+        others = np.arange(len(fits)) != i
+        w = 1.0 / ses[others] ** 2
+        mean, se_mean = float(np.sum(w * values[others]) / np.sum(w)), float(np.sum(w) ** -0.5)
+        worst = max(worst, abs(values[i] - mean) / math.hypot(ses[i], se_mean))
+    if not worst > GRAVITY_SCATTER_MAX:
+        return None
+    listed = ", ".join(
+        f"{f.gravity_moment:.4g} +- {f.gravity_moment_se:.2g} N m ({f.source})" for f in fits
+    )
+    return (
+        f"condition '{condition}': its quasi-static trials give M_g = {listed}: {worst:.3g} "
+        "standard errors apart, where one condition has one M_g; check for a body moved "
+        "between them, a trial of another mounting or a torque zero that drifted, and give "
+        "such a trial its own condition (or remove it)"
+    )
+
+
+def _sign_key(sign: int | str) -> float | str:
+    return sign if isinstance(sign, str) else float(sign)
+
+
+@dataclass(frozen=True)
+class SignVerdict:
+    """What :func:`inertia_sign_checks` says of one fast trial: an error, or a flag."""
+
+    error: str = ""
+    flag: str = ""
+
+
+def inertia_sign_checks(
+    trials: Sequence[tuple[int | str, InertiaEstimate]], condition: str
+) -> list[SignVerdict | None]:
+    """Judge the negative inertias of one condition's fast trials together.
+
+    Parameters
+    ----------
+    trials : sequence of (torque_sign, InertiaEstimate)
+        Every fast trial of the condition: its manifest ``torque_sign`` (1, -1 or
+        ``"motion"``) and its estimate (from
+        :func:`~inertiafit.processing.inertia.estimate_inertia` with ``refuse_negative=False``).
+    condition : str
+        The condition's label, for messages.
+
+    Returns
+    -------
+    list
+        Per trial, ``None`` (not negative) or a :class:`SignVerdict`: an ``error`` for an
+        inertia below zero by more than ``NEGATIVE_SE`` standard errors, else a ``flag``. The
+        torque sign is advised only where following it leaves the condition of one sign: every
+        fast trial negative, or this trial's ``torque_sign`` other than every positive
+        sibling's; otherwise the line says that a sign would mix them, with the siblings'
+        range.
+    """
+    positive = [(sign, est) for sign, est in trials if est.inertia >= 0]
+    out: list[SignVerdict | None] = []
+    for sign, est in trials:
+        value, se = est.inertia, est.inertia_se
+        if value >= 0:
+            out.append(None)
+            continue
+        if not positive:
+            n = len(trials)
+            advice = (
+                f"{'the' if n == 1 else f'all {n}'} fast trial{'' if n == 1 else 's'} of "
+                f"condition '{condition}' {'is' if n == 1 else 'are'} negative: "
+                f"{torque_sign_hint(sign)}"
+            )
+        elif sign != "motion" and all(_sign_key(s) != _sign_key(sign) for s, _ in positive):
+            advice = (
+                f"its torque_sign differs from that of the condition's positive fast trials: "
+                f"{torque_sign_hint(sign)}"
+            )
+        else:
+            values = [e.inertia for _, e in positive]
+            advice = (
+                f"{len(positive)} other fast trial{'' if len(positive) == 1 else 's'} of "
+                f"condition '{condition}' give {min(values):.3g} to {max(values):.3g} kg m^2 "
+                "with the same torque_sign, so flipping its sign would mix signs within the "
+                "condition; check this trial's columns, window and recording"
+            )
+        if value + NEGATIVE_SE * se < 0:
+            out.append(
+                SignVerdict(
+                    error=(
+                        f"{est.source}: torque: inertia {value:.4g} kg m^2 is negative (the "
+                        f"torque opposes the acceleration in the window {est.window_start:.4g} "
+                        f"to {est.window_end:.4g} s); {advice}"
+                    )
+                )
+            )
+        else:
+            out.append(
+                SignVerdict(flag=f"negative inertia {value:.3g} +- {se:.2g} kg m^2; {advice}")
+            )
+    return out
