@@ -15,7 +15,7 @@ weighed mass and balance point become Gaussians in :func:`study_model` (:func:`m
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -29,7 +29,10 @@ from inertiafit.measured import measured_quantity
 from inertiafit.stats import shared_error
 
 if TYPE_CHECKING:  # evidence reads these; importing them would load the processing stack
+    import pandas as pd
+
     from inertiafit.io import Study
+    from inertiafit.processing.gravity import GravityFit
     from inertiafit.processing.study import ProcessedStudy
 
 __all__ = [
@@ -88,7 +91,12 @@ def shared_gravity_error(coefficients, covariance, sensitivities) -> tuple[float
 PRIOR_RANGE_SE = 4.0
 
 
-def check_trials_in_priors(processed: ProcessedStudy, priors: dict[str, Prior]) -> list[str]:
+def check_trials_in_priors(
+    study: Study,
+    trials: pd.DataFrame,
+    gravity: Mapping[str, GravityFit],
+    priors: Mapping[str, Prior],
+) -> list[str]:
     """Each trial's ``I`` and ``M_g`` against what its condition's priors allow, before sampling.
 
     For a condition of bodies mounted as they are (no moved body, no added mass), the range
@@ -101,15 +109,17 @@ def check_trials_in_priors(processed: ProcessedStudy, priors: dict[str, Prior]) 
     combined ``M_g``), no point of the priors can explain its trials: the study is refused
     with one line naming those trials and their values against the range (before the
     sampler's feasibility check blames a bound). When only some trials are outside, each gets
-    a flag (``trials.csv``, the warnings), which is returned as lines too.
+    a flag in ``trials`` (changed in place) and a line in the list returned (the warnings).
+
+    ``trials`` are a study's rows as :func:`~inertiafit.processing.study.process_study`
+    gathers them (its ``check_gravity`` passes the quasi-static rows alone, before any fast
+    trial is processed), ``gravity`` each condition's gravity model.
 
     Raises
     ------
     StudyRefused
         Naming the condition and its trials outside the range (``refused``: file -> reason).
     """
-    study = processed.study
-    trials = processed.trials
     notes: list[str] = []
     living = study.living_body
     for label, mounting in study.mountings.items():
@@ -132,7 +142,7 @@ def check_trials_in_priors(processed: ProcessedStudy, priors: dict[str, Prior]) 
             if key == "inertia":
                 center, spread = float(np.median(values)), 0.0
             else:
-                g = processed.gravity[label]
+                g = gravity[label]
                 center, spread = g.gravity_moment, PRIOR_RANGE_SE * g.gravity_moment_se
             allowed = f"the {r.low:.3g} to {r.high:.3g} {r.unit} that the priors of {names} allow"
             files = rows["file"].to_numpy()[outside]
@@ -143,9 +153,11 @@ def check_trials_in_priors(processed: ProcessedStudy, priors: dict[str, Prior]) 
                 )
                 more = f" and {len(files) - 4} more" if len(files) > 4 else ""
                 cause = f"{r.symbol} = {{:.3g}} {r.unit}, outside {allowed}"
+                low, high = f"{np.min(values):.3g}", f"{np.max(values):.3g}"
+                given = low if low == high else f"{low} to {high}"
                 raise StudyRefused(
                     f"{study.path}: condition '{label}': its {r.trials} give {r.symbol} = "
-                    f"{np.min(values):.3g} to {np.max(values):.3g} {r.unit} ({listed}{more}), "
+                    f"{given} {r.unit} ({listed}{more}), "
                     f"outside {allowed}: check those trials ({r.causes}?) before the priors",
                     refused={str(f): cause.format(v) for f, v in zip(files, shown, strict=True)},
                 )
@@ -160,9 +172,7 @@ def check_trials_in_priors(processed: ProcessedStudy, priors: dict[str, Prior]) 
                         filter(None, [old if isinstance(old, str) else "", flag])
                     )
                 )
-                line = f"{study.base_dir / str(f)}: {flag}"
-                notes.append(line)
-                processed.warnings.append(line)
+                notes.append(f"{study.base_dir / str(f)}: {flag}")
     return notes
 
 

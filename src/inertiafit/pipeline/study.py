@@ -192,9 +192,15 @@ def analyse_study(
     say = echo or (lambda _msg: None)
     priors = study_priors(study)
     ideals = study_ideals(study)
-    processed = process_study(study, echo=say)  # a refusal carries the table gathered
+
+    def in_priors(trials: pd.DataFrame, gravity: dict) -> list[str]:
+        return check_trials_in_priors(study, trials, gravity, priors)
+
+    # a refusal in there carries the table gathered; M_g is held to the priors before any
+    # fast trial is processed (a wrong gravity model would be blamed on their torque's sign)
+    processed = process_study(study, echo=say, check_gravity=in_priors)
     try:
-        check_trials_in_priors(processed, priors)
+        processed.warnings.extend(in_priors(processed.trials, processed.gravity))
         model = study_model(processed, priors)
         model.check_feasible()
     except InputError as exc:  # refused before sampling: the per-trial table goes with it

@@ -52,10 +52,12 @@ __all__ = [
     "GRAVITY_SCATTER_MAX",
     "GRAVITY_SHARE_MAX",
     "SIGN_CORRELATION",
+    "SLOPE_RANGE",
     "SPEED_TOLERANCE",
     "WINDOW_SPEED_CHANGE_MIN",
     "SignVerdict",
     "check_quasi_static_sweep",
+    "cruise_slope",
     "fast_trial_flags",
     "gravity_scatter_message",
     "inertia_sign_checks",
@@ -74,6 +76,9 @@ SIGN_CORRELATION = -0.5
 #: Quasi-static trials of one condition whose ``M_g`` differ by more than this many standard
 #: errors (of the difference) are refused: one condition has one ``M_g``.
 GRAVITY_SCATTER_MAX = 5.0
+#: Slopes of a fast trial's cruise torque on its gravity model (in absolute value) within
+#: which the model fits the trial, so that a negative inertia may be a torque sign.
+SLOPE_RANGE = (0.5, 2.0)
 
 
 def fast_trial_flags(
@@ -168,6 +173,31 @@ def _check_gravity_share(source: str, estimate: InertiaEstimate, gravity: Gravit
     )
 
 
+def _cruise(
+    trial: xr.Dataset,
+    estimate: InertiaEstimate,
+    gravity: GravityFit,
+    u: np.ndarray,
+    plateau: float,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Torque and gravity model over the cruise (speed ``u`` near ``plateau``, no acceleration).
+
+    ``None`` when the cruise is too short, or sweeps too little of the model to compare.
+    """
+    if estimate.acceleration is None or plateau <= 0:
+        return None
+    alpha = np.abs(estimate.acceleration)
+    cruise = (u > 0.8 * plateau) & (alpha < 0.2 * float(np.max(alpha)))
+    if cruise.sum() < 20:
+        return None
+    model = gravity.torque(trial["angle"].values[cruise])
+    torque = trial["torque"].values[cruise]
+    spread = float(np.std(model))
+    if spread < 0.1 * abs(gravity.gravity_moment) or float(np.std(torque)) == 0.0:
+        return None
+    return torque, model
+
+
 def _sign_flags(
     trial: xr.Dataset,
     estimate: InertiaEstimate,
@@ -176,17 +206,10 @@ def _sign_flags(
     plateau: float,
 ) -> list[str]:
     """A flag when the cruise torque (speed ``u`` near ``plateau``) runs against the model."""
-    if estimate.acceleration is None or plateau <= 0:
-        return []
-    alpha = np.abs(estimate.acceleration)
-    cruise = (u > 0.8 * plateau) & (alpha < 0.2 * float(np.max(alpha)))
-    if cruise.sum() < 20:
-        return []
-    model = gravity.torque(trial["angle"].values[cruise])
-    torque = trial["torque"].values[cruise]
-    spread = float(np.std(model))
-    if spread < 0.1 * abs(gravity.gravity_moment) or float(np.std(torque)) == 0.0:
+    found = _cruise(trial, estimate, gravity, u, plateau)
+    if found is None:
         return []  # the cruise sweeps too little of the model to tell its sign
+    torque, model = found
     r = float(np.corrcoef(torque, model)[0, 1])
     if not r < SIGN_CORRELATION:
         return []
@@ -196,6 +219,26 @@ def _sign_flags(
         "(torque_sign of one of them?)"
     )
     return [flag]
+
+
+def cruise_slope(
+    trial: xr.Dataset, estimate: InertiaEstimate, gravity: GravityFit
+) -> float | None:
+    """How the torque at constant speed follows the condition's gravity model: its slope on it.
+
+    About 1 when the quasi-static and fast trials agree, about -1 when they are signed
+    opposite, far from both when the model is wrongly scaled (a quasi-static torque 10 x too
+    large gave 0.1). ``None`` when the cruise cannot tell (too short, or the model nearly flat
+    over it).
+    """
+    v = estimate.velocity if estimate.velocity is not None else trial["velocity"].values
+    u = np.abs(np.asarray(v, dtype=np.float64))
+    plateau = plateau_speed(u) if u.size and np.max(u) > 0 else 0.0
+    found = _cruise(trial, estimate, gravity, u, plateau)
+    if found is None:
+        return None
+    torque, model = found
+    return float(np.cov(torque, model)[0, 1] / np.var(model, ddof=1))
 
 
 def check_quasi_static_sweep(fit: GravityFit) -> GravityFit:
@@ -212,7 +255,8 @@ def check_quasi_static_sweep(fit: GravityFit) -> GravityFit:
         return fit
     raise InputError(
         f"{fit.source}: angle: a quasi-static sweep of {sweep:.3g} deg gives M_g = "
-        f"{fit.gravity_moment:.3g} +- {fit.gravity_moment_se:.3g} N m, which it does not "
+        f"{fit.gravity_moment:.4g} +- {fit.gravity_moment_se:.4g} N m, which it "
+        "does not "
         f"determine (the interval reaches 0); record the quasi-static trial over "
         f"{MIN_RANGE:g} deg or more (the fast trials' range)"
     )
@@ -264,16 +308,17 @@ class SignVerdict:
 
 
 def inertia_sign_checks(
-    trials: Sequence[tuple[int | str, InertiaEstimate]], condition: str
+    trials: Sequence[tuple[int | str, InertiaEstimate, float | None]], condition: str
 ) -> list[SignVerdict | None]:
     """Judge the negative inertias of one condition's fast trials together.
 
     Parameters
     ----------
-    trials : sequence of (torque_sign, InertiaEstimate)
+    trials : sequence of (torque_sign, InertiaEstimate, slope)
         Every fast trial of the condition: its manifest ``torque_sign`` (1, -1 or
-        ``"motion"``) and its estimate (from
-        :func:`~inertiafit.processing.inertia.estimate_inertia` with ``refuse_negative=False``).
+        ``"motion"``), its estimate (from
+        :func:`~inertiafit.processing.inertia.estimate_inertia` with ``refuse_negative=False``)
+        and its :func:`cruise_slope` on the condition's gravity model (``None``: unknown).
     condition : str
         The condition's label, for messages.
 
@@ -281,26 +326,44 @@ def inertia_sign_checks(
     -------
     list
         Per trial, ``None`` (not negative) or a :class:`SignVerdict`: an ``error`` for an
-        inertia below zero by more than ``NEGATIVE_SE`` standard errors, else a ``flag``. The
-        torque sign is advised only where following it leaves the condition of one sign: every
-        fast trial negative, or this trial's ``torque_sign`` other than every positive
-        sibling's; otherwise the line says that a sign would mix them, with the siblings'
-        range.
+        inertia below zero by more than ``NEGATIVE_SE`` standard errors, else a ``flag``.
+
+    Notes
+    -----
+    A torque sign is advised only where the data support it: the cruise torque follows the
+    gravity model with a slope near +-1 (:data:`SLOPE_RANGE`; else the gravity model is
+    blamed, naming the slope), and following the advice leaves the condition of one sign —
+    every fast trial negative (with a slope near +1 the quasi-static trials agree with them, so
+    the whole condition is flipped), or this trial's ``torque_sign`` other than that of every
+    positive sibling. Otherwise the line says that flipping would mix signs, with the
+    siblings' range.
     """
-    positive = [(sign, est) for sign, est in trials if est.inertia >= 0]
+    positive = [(sign, est) for sign, est, _ in trials if est.inertia >= 0]
     out: list[SignVerdict | None] = []
-    for sign, est in trials:
+    for sign, est, slope in trials:
         value, se = est.inertia, est.inertia_se
         if value >= 0:
             out.append(None)
             continue
-        if not positive:
-            n = len(trials)
+        n = len(trials)
+        if slope is not None and not SLOPE_RANGE[0] <= abs(slope) <= SLOPE_RANGE[1]:
             advice = (
-                f"{'the' if n == 1 else f'all {n}'} fast trial{'' if n == 1 else 's'} of "
-                f"condition '{condition}' {'is' if n == 1 else 'are'} negative: "
-                f"{torque_sign_hint(sign)}"
+                f"its torque at constant speed follows the condition's gravity model with a "
+                f"slope of {slope:.2g} where +-1 is expected: the gravity model (its "
+                "quasi-static trials' scale, sweep or sign) is wrong, not this torque's sign"
             )
+        elif not positive:
+            every = (
+                f"{'the' if n == 1 else f'all {n}'} fast trial{'' if n == 1 else 's'} of "
+                f"condition '{condition}' {'is' if n == 1 else 'are'} negative"
+            )
+            if slope is not None and slope > 0 and sign != "motion":
+                advice = (
+                    f"{every} and agree with its quasi-static trials: the whole condition is "
+                    f"signed opposite; {torque_sign_hint(sign)}, and for its quasi-static trials"
+                )
+            else:
+                advice = f"{every}: {torque_sign_hint(sign)}"
         elif sign != "motion" and all(_sign_key(s) != _sign_key(sign) for s, _ in positive):
             advice = (
                 f"its torque_sign differs from that of the condition's positive fast trials: "
@@ -315,15 +378,12 @@ def inertia_sign_checks(
                 "condition; check this trial's columns, window and recording"
             )
         if value + NEGATIVE_SE * se < 0:
-            out.append(
-                SignVerdict(
-                    error=(
-                        f"{est.source}: torque: inertia {value:.4g} kg m^2 is negative (the "
-                        f"torque opposes the acceleration in the window {est.window_start:.4g} "
-                        f"to {est.window_end:.4g} s); {advice}"
-                    )
-                )
+            message = (
+                f"{est.source}: torque: inertia {value:.4g} kg m^2 is negative (the torque "
+                f"opposes the acceleration in the window {est.window_start:.4g} to "
+                f"{est.window_end:.4g} s); {advice}"
             )
+            out.append(SignVerdict(error=message))
         else:
             out.append(
                 SignVerdict(flag=f"negative inertia {value:.3g} +- {se:.2g} kg m^2; {advice}")

@@ -42,6 +42,7 @@ from inertiafit.processing.living import (
 from inertiafit.processing.plausibility import (
     SignVerdict,
     check_quasi_static_sweep,
+    cruise_slope,
     fast_trial_flags,
     gravity_scatter_message,
     inertia_sign_checks,
@@ -351,6 +352,7 @@ def process_study(
     cutoff: float = 20.0,
     order: int = 2,
     echo: Callable[[str], None] | None = None,
+    check_gravity: Callable[[pd.DataFrame, dict[str, GravityFit]], object] | None = None,
 ) -> ProcessedStudy:
     """Read and process every trial of a study.
 
@@ -362,6 +364,10 @@ def process_study(
         Zero-lag Butterworth low-pass applied to torque and velocity (Hz, design order).
     echo : callable, optional
         Receives one progress line per stage.
+    check_gravity : callable, optional
+        Called with the quasi-static rows (columns :data:`TRIAL_COLUMNS`) and each
+        condition's gravity model once they are fitted, before any fast trial is processed;
+        it may raise ``InputError`` (the pipeline's check of ``M_g`` against the priors).
 
     Returns
     -------
@@ -396,7 +402,7 @@ def process_study(
     say = echo or (lambda _msg: None)
     run = _Run(study)
     try:
-        return _process(study, run, cutoff=cutoff, order=order, say=say)
+        return _process(study, run, cutoff=cutoff, order=order, say=say, check=check_gravity)
     except InputError as exc:  # the table gathered so far travels with the error
         gathered = [run.rows.get(t.index) or run.skipped.get(t.index) for t in study.trials]
         table = pd.DataFrame([r for r in gathered if r is not None], columns=TRIAL_COLUMNS)
@@ -407,7 +413,13 @@ def process_study(
 
 
 def _process(
-    study: Study, run: _Run, *, cutoff: float, order: int, say: Callable[[str], None]
+    study: Study,
+    run: _Run,
+    *,
+    cutoff: float,
+    order: int,
+    say: Callable[[str], None],
+    check: Callable[[pd.DataFrame, dict[str, GravityFit]], object] | None,
 ) -> ProcessedStudy:
     """:func:`process_study`'s stages; ``run`` keeps what was gathered when one raises."""
     say(f"reading {len(study.trials)} trials")
@@ -435,8 +447,12 @@ def _process(
         if fit is None:
             continue
         rigid = spec.condition not in living_conditions  # a living sweep's M_g: the joint fit's
-        if rigid and run.attempt(spec, functools.partial(check_quasi_static_sweep, fit)) is None:
-            continue
+        if rigid:
+            # its values go into a refused study's table (a skipped trial has its own row)
+            rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
+            if run.attempt(spec, functools.partial(check_quasi_static_sweep, fit)) is None:
+                del rows[spec.index]
+                continue
         if spec.condition in living_conditions:
             # the rigid fit of one sweep absorbs the passive curve: its drift and friction
             # flags describe that curve, and its M_g is the rigid model's (the paper's)
@@ -480,6 +496,8 @@ def _process(
             notes.extend(f"{study.path}: condition {cond}: {f}" for f in gravity[cond].flags)
         gravity = {c: gravity[c] for c in qs_fits}  # the manifest's order
     _check_phases(study, gravity, notes)
+    if check is not None:
+        check(pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS), gravity)
     say("estimating the inertia of each fast trial")
     traces: list[dict] = []
     count: dict[str, int] = {}
@@ -509,12 +527,15 @@ def _process(
         )
         if est is not None:
             estimated.append((spec, ds, est))
-    verdicts = _sign_verdicts(study, estimated)
+    for spec, _, est in estimated:  # in a refused study's table until they are judged
+        rows[spec.index] = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
+    verdicts = _sign_verdicts(study, estimated, gravity)
     for spec, ds, first in estimated:
         verdict = verdicts.get(spec.index)
         est = first
         if verdict is not None and verdict.error:
             run.attempt(spec, functools.partial(_refuse, verdict.error))  # raises, or skips it
+            del rows[spec.index]
             continue
         if verdict is not None and verdict.flag:
             est = dataclasses.replace(est, flags=(verdict.flag, *est.flags))
@@ -531,6 +552,7 @@ def _process(
             ),
         )
         if more is None:
+            del rows[spec.index]
             continue
         if more:
             est = dataclasses.replace(est, flags=(*est.flags, *more))
@@ -604,14 +626,22 @@ def _refuse(message: str) -> None:
 
 
 def _sign_verdicts(
-    study: Study, estimated: list[tuple[TrialSpec, xr.Dataset, InertiaEstimate]]
+    study: Study,
+    estimated: list[tuple[TrialSpec, xr.Dataset, InertiaEstimate]],
+    gravity: dict[str, GravityFit],
 ) -> dict[int, SignVerdict]:
     """The negative inertias judged per condition (:func:`inertia_sign_checks`), by index."""
     out: dict[int, SignVerdict] = {}
     for cond in study.conditions:
-        group = [(spec, est) for spec, _, est in estimated if spec.condition == cond]
-        checked = inertia_sign_checks([(spec.torque_sign, est) for spec, est in group], cond)
-        for (spec, _), verdict in zip(group, checked, strict=True):
+        group = [(spec, ds, est) for spec, ds, est in estimated if spec.condition == cond]
+        if not any(est.inertia < 0 for _, _, est in group):
+            continue
+        entries = [
+            (spec.torque_sign, est, cruise_slope(ds, est, gravity[cond]))
+            for spec, ds, est in group
+        ]
+        checked = inertia_sign_checks(entries, cond)
+        for (spec, _, _), verdict in zip(group, checked, strict=True):
             if verdict is not None:
                 out[spec.index] = verdict
     return out
