@@ -530,6 +530,15 @@ def _process(
     for spec, _, est in estimated:  # in a refused study's table until they are judged
         rows[spec.index] = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
     verdicts = _sign_verdicts(study, estimated, gravity)
+    errors = [
+        (spec, verdicts[spec.index].error)
+        for spec, _, _ in estimated
+        if spec.index in verdicts and verdicts[spec.index].error
+    ]
+    if errors and not run.skip:  # every negative trial marked in the refused study's table
+        for spec, message in errors:
+            run.refuse(spec, message)
+        raise InputError(errors[0][1])
     for spec, ds, first in estimated:
         verdict = verdicts.get(spec.index)
         est = first
