@@ -319,6 +319,20 @@ def test_a_trial_flipped_alone_is_told_to_match_its_siblings():
     )
 
 
+def test_a_gravity_model_of_the_wrong_scale_is_flagged(base, tmp_path):  # noqa: F811
+    # the quasi-static torque 2x (M_g 13.5 N m, inside the priors): every inertia came out
+    # half its value (0.104 for 0.205 kg m^2) without a word
+    manifest = copy_of(base, tmp_path)
+    scale_torque(manifest, [QS], 2.0)
+    flags = process_study(manifest).trials.set_index("file")["flags"]
+    for file in FASTS:
+        assert re.search(
+            r"torque: at constant speed it follows the condition's gravity model with a slope "
+            r"of 0\.5\d? where 1 is expected: the quasi-static trials and this one disagree in scale",
+            flags[file],
+        ), flags[file]
+
+
 # -- the output folder: checked first, and an earlier run's outputs kept -----------------------
 
 
@@ -383,7 +397,7 @@ def test_a_clean_study_passes_every_check_silently(
     notes = check_trials_in_priors(study, processed.trials, processed.gravity, study_priors(study))
     assert notes == []
     pd.testing.assert_frame_equal(processed.trials, before)  # no flag added
-    words = ("outside", "negative", "sweep", "standard errors apart", "torque_sign")
+    words = ("outside", "negative", "sweep", "standard errors apart", "torque_sign", "slope")
     assert not [w for w in processed.warnings if any(x in w for x in words)]
     with pytest.raises(Sampled):
         analyse_study(study)

@@ -51,6 +51,7 @@ from inertiafit.processing.window import MIN_SPEED_CHANGE, plateau_speed
 __all__ = [
     "GRAVITY_SCATTER_MAX",
     "GRAVITY_SHARE_MAX",
+    "SCALE_RANGE",
     "SIGN_CORRELATION",
     "SLOPE_RANGE",
     "SPEED_TOLERANCE",
@@ -59,6 +60,7 @@ __all__ = [
     "check_quasi_static_sweep",
     "cruise_slope",
     "fast_trial_flags",
+    "gravity_scale_flag",
     "gravity_scatter_message",
     "inertia_sign_checks",
 ]
@@ -79,6 +81,10 @@ GRAVITY_SCATTER_MAX = 5.0
 #: Slopes of a fast trial's cruise torque on its gravity model (in absolute value) within
 #: which the model fits the trial, so that a negative inertia may be a torque sign.
 SLOPE_RANGE = (0.5, 2.0)
+#: Slopes within which a positive inertia's gravity model is taken to fit its trial (clean
+#: simulated trials: 0.91 to 1.12); outside, a flag (a quasi-static torque 2 x too large gave
+#: 0.5 and every inertia half its value, silently).
+SCALE_RANGE = (0.75, 1.33)
 
 
 def fast_trial_flags(
@@ -239,6 +245,23 @@ def cruise_slope(
         return None
     torque, model = found
     return float(np.cov(torque, model)[0, 1] / np.var(model, ddof=1))
+
+
+def gravity_scale_flag(slope: float | None) -> str | None:
+    """A flag when a fast trial's cruise torque follows its gravity model with the wrong scale.
+
+    ``slope`` is :func:`cruise_slope`; a positive slope outside :data:`SCALE_RANGE` means the
+    model subtracted from the trial's torque is too large or too small for it (a quasi-static
+    trial recorded with another gain or unit), which moves its inertia without an error. A
+    negative slope is :func:`fast_trial_flags`' sign flag.
+    """
+    if slope is None or slope <= 0 or SCALE_RANGE[0] <= slope <= SCALE_RANGE[1]:
+        return None
+    return (
+        f"torque: at constant speed it follows the condition's gravity model with a slope of "
+        f"{slope:.2g} where 1 is expected: the quasi-static trials and this one disagree in "
+        "scale (a torque gain or unit that differs between them?), and the inertia rests on it"
+    )
 
 
 def check_quasi_static_sweep(fit: GravityFit) -> GravityFit:

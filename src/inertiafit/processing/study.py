@@ -44,6 +44,7 @@ from inertiafit.processing.plausibility import (
     check_quasi_static_sweep,
     cruise_slope,
     fast_trial_flags,
+    gravity_scale_flag,
     gravity_scatter_message,
     inertia_sign_checks,
 )
@@ -563,6 +564,9 @@ def _process(
         if more is None:
             del rows[spec.index]
             continue
+        if spec.condition not in living_conditions:  # a living cruise holds the passive curve
+            scale = gravity_scale_flag(cruise_slope(ds, est, gravity[spec.condition]))
+            more = [*more, scale] if scale else more
         if more:
             est = dataclasses.replace(est, flags=(*est.flags, *more))
         notes.extend(f"{est.source}: {flag}" for flag in est.flags)
