@@ -18,7 +18,8 @@ a quarter) counts as a miss, and the number refused is printed.
 
 Printed per design: for the forearm's ``I`` and ``M_g`` the share of studies whose 95 % HDI
 holds the truth with its binomial 95 % interval (the issue's target 90-99 %), the mean HDI
-width relative to the truth, and for the rigid model its coverage and its median and range of
+width relative to the truth, the mean z-score (posterior mean minus truth over posterior SD;
+near 0 when unbiased), and for the rigid model its coverage and its median and range of
 relative error (the bias the living model removes).
 
 Run:  .venv/bin/python benchmarks/living_coverage.py [--quick] [--studies N] [--seed S]
@@ -122,6 +123,7 @@ def one_study(design: str, seed: int, *, rigid_posterior: bool = True) -> dict:
             out[f"{label} {q} inside"] = bool(lo <= true[q] <= hi)
             out[f"{label} {q} width"] = (hi - lo) / true[q]
             out[f"{label} {q} error"] = (float(np.median(draws)) - true[q]) / true[q]
+            out[f"{label} {q} z"] = (float(np.mean(draws)) - true[q]) / float(np.std(draws))
     return out
 
 
@@ -153,6 +155,7 @@ def run(*, quick: bool = False, seed: int = 20261125, studies: int | None = None
                     "coverage": k / len(sub),
                     "interval": f"[{lo:.2f}, {hi:.2f}]",
                     "width": float(np.mean([r[f"living {q} width"] for r in sub])),
+                    "z": float(np.mean([r[f"living {q} z"] for r in sub])),
                     "rigid_coverage": float(
                         np.mean([r.get(f"rigid {q} inside", False) for r in sub])
                     ),
@@ -184,6 +187,7 @@ def show(out: dict) -> str:
         ("coverage", "95% HDI covers", ".2f"),
         ("interval", "binomial 95%", ""),
         ("width", "HDI width / truth", ".3f"),
+        ("z", "mean z", "+.2f"),
         ("rigid_coverage", "rigid covers", ".2f"),
         ("rigid_refused", "rigid refused", "d"),
         ("rigid_bias", "rigid median error", "+.3f"),

@@ -487,3 +487,200 @@ def test_a_mangled_manifest_is_an_input_error(edits):
 def test_manifest_of_random_bytes_is_an_input_error(data):
     path = _scratch("study.toml", data)
     _input_error_or(lambda: load_study(path))
+
+
+# --- EMG channels (issue 20) ---------------------------------------------------------------
+
+EMG_UNITS = {"V": 1.0, "mV": 1e-3, "uV": 1e-6, "µV": 1e-6}
+#: Names of the other columns of the files written below (never an EMG channel's).
+_CHANNEL_NAMES = {"time", "angle", "velocity", "torque", "frame", "sub frame", "angular velocity"}
+#: EMG column names: a letter first (a name that reads as a number is not a header), then any
+#: printable characters but the delimiters and quotes.
+EMG_NAMES = st.text(
+    alphabet=st.characters(codec="utf-8", exclude_categories=["Cs", "Cc", "Z"],
+                           exclude_characters=',;\t"\'|'),
+    min_size=1, max_size=12,
+).filter(lambda s: s[0].isalpha() and s.strip().lower() not in _CHANNEL_NAMES)  # fmt: skip
+
+
+#: EMG labels a C3D file can hold (py-c3d writes labels as ASCII).
+C3D_EMG_NAMES = st.from_regex(r"[A-Za-z][A-Za-z0-9._]{0,11}", fullmatch=True).filter(
+    lambda s: s.lower() not in ("angle.1", "angular velocity.1", "torque.1")
+)
+
+
+@st.composite
+def emg_channels(draw, n: int, names=EMG_NAMES):
+    """One to three EMG channels in volts (Gaussian noise), distinct names."""
+    names = draw(st.lists(names, min_size=1, max_size=3, unique_by=str.lower))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    level = draw(st.sampled_from([5e-6, 1e-4, 2e-3]))
+    return {m: rng.normal(0.0, level, n) for m in names}
+
+
+@given(st.data())
+def test_csv_emg_round_trips_through_its_unit(data):
+    trial = data.draw(trials())
+    n = len(trial["time"])
+    emg = data.draw(emg_channels(n))
+    unit = data.draw(st.sampled_from(list(EMG_UNITS)))
+    delimiter = data.draw(st.sampled_from([",", ";", "\t"]))
+    cols = _columns_in_units(trial, _units("deg", "N*m", "s"))
+    header = delimiter.join([*cols, *emg])
+    rows = [
+        delimiter.join(
+            [*(repr(float(cols[q][i])) for q in cols)]
+            + [repr(float(v[i] / EMG_UNITS[unit])) for v in emg.values()]
+        )
+        for i in range(n)
+    ]
+    path = _scratch("emg.csv", header + "\n" + "\n".join(rows) + "\n")
+    ds = read_trial(path, format="csv", delimiter=delimiter, emg=list(emg), emg_unit=unit)
+    _assert_round_trip(ds, trial)
+    assert list(ds["muscle"].values) == list(emg)
+    for i, values in enumerate(emg.values()):
+        np.testing.assert_allclose(ds["emg"].values[i], values, rtol=1e-12, atol=1e-18)
+
+
+@given(st.data())
+def test_vicon_emg_round_trips_at_the_device_rate(data):
+    n_sub = data.draw(st.sampled_from([10, 15]))
+    rate = 100.0 * n_sub
+    trial = _vendor_trial(data.draw, rate)
+    k = np.arange(len(trial["time"]))
+    emg = data.draw(emg_channels(k.size))
+    unit = data.draw(st.sampled_from(["V", "mV", ""]))  # "": the units cell is empty
+    frame, sub = 1 + k // n_sub, k % n_sub
+    deg = {q: np.degrees(trial[q]) for q in ("angle", "velocity")}
+    factor = EMG_UNITS.get(unit, 1.0)
+    lines = ["", "Devices", f"{rate:g}", ",," + ",".join("Myon - Voltage" for _ in emg)
+             + ",Contrex - Angle,Contrex - Angular Velocity,Contrex - Force,",
+             "Frame,Sub Frame," + ",".join(emg) + ",Angle,Angular velocity,Torque",
+             ",," + ",".join(unit for _ in emg) + ",deg,deg/s,N"]  # fmt: skip
+    lines += [
+        f"{frame[i]},{sub[i]},"
+        + ",".join(f"{v[i] / factor:.12e}" for v in emg.values())
+        + f",{deg['angle'][i]:.9f},{deg['velocity'][i]:.9f},{trial['torque'][i]:.9f}"
+        for i in k
+    ]
+    path = _scratch("vicon.csv", "\r\n".join(lines) + "\r\n")
+    ds = read_trial(path, format="vicon", emg=list(emg))
+    assert ds.sizes["time"] == k.size  # every device sample: the EMG keeps its rate
+    assert ds.attrs["sampling_rate"] == pytest.approx(rate)
+    for i, values in enumerate(emg.values()):
+        np.testing.assert_allclose(ds["emg"].values[i], values, rtol=1e-11, atol=1e-18)
+
+
+@given(st.data())
+def test_c3d_emg_round_trips_at_the_analog_rate(data):
+    c3d = pytest.importorskip("c3d")
+    import warnings
+
+    trial = _vendor_trial(data.draw, 1000.0, n_max=300)
+    n = 10 * (len(trial["time"]) // 10)
+    trial = {q: (v[:n] if isinstance(v, np.ndarray) else v) for q, v in trial.items()}
+    emg = data.draw(emg_channels(n, names=C3D_EMG_NAMES))
+    labels = {"angle": "Angle.1", "velocity": "Angular Velocity.1", "torque": "Torque.1"}
+    units = {"angle": "deg", "velocity": "deg/s", "torque": "N*m"}
+    volts = [(from_si(trial[q], q, units[q], where="test") / 100.0) for q in labels]
+    block = np.vstack([*emg.values(), *volts]).astype(np.float32)
+    writer = c3d.Writer(point_rate=100.0, analog_rate=1000.0)
+    writer.set_analog_labels([*emg, *labels.values()])
+    for f in range(n // 10):
+        writer.add_frames([(np.zeros((0, 5), np.float32), block[:, 10 * f : 10 * f + 10])])
+    path = _scratch("emg.c3d", b"")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # py-c3d warns that the file has no markers
+        with path.open("wb") as handle:
+            writer.write(handle)
+    cal = {q: {"scale": 100.0, "unit": units[q]} for q in labels}
+    ds = read_trial(path, format="c3d", calibration=cal, emg=list(emg))
+    assert ds.sizes["time"] == n
+    for i, values in enumerate(emg.values()):
+        stored = values.astype(np.float32).astype(np.float64)
+        np.testing.assert_allclose(ds["emg"].values[i], stored, rtol=1e-6, atol=1e-12)
+
+
+def _valid_csv_with_emg(trial: dict, rng: np.random.Generator) -> str:
+    lines = _valid_csv(trial).splitlines()
+    emg = rng.normal(0.0, 1e-4, len(lines) - 1)
+    out = [lines[0] + ",biceps"] + [f"{row},{e!r}" for row, e in zip(lines[1:], emg, strict=True)]
+    return "\n".join(out) + "\n"
+
+
+@given(
+    trial=trials(),
+    edits=st.lists(
+        st.tuples(st.floats(0, 1), st.integers(0, 8), st.binary(max_size=8)),
+        min_size=1,
+        max_size=4,
+    ),
+    fmt=st.sampled_from(["csv", "analog"]),
+)
+def test_a_mutated_emg_file_gives_input_error_or_finite_emg(trial, edits, fmt):
+    data = _valid_csv_with_emg(trial, np.random.default_rng(0)).encode()
+    for at, length, insert in edits:
+        i = int(at * len(data))
+        data = data[:i] + insert + data[i + length :]
+    cal = None
+    if fmt == "analog":
+        cal = {q: {"scale": 1.0, "unit": u} for q, u in
+               (("angle", "deg"), ("velocity", "deg/s"), ("torque", "N*m"))}  # fmt: skip
+    ds = _read_only_input_errors(_scratch("emg.csv", data), format=fmt, calibration=cal,
+                                 emg=["biceps"])  # fmt: skip
+    if ds is not None:
+        assert ds["emg"].dims == ("muscle", "time")
+        assert np.isfinite(ds["emg"].values).all()
+        assert (np.abs(ds["emg"].values) <= 100.0).all()
+
+
+@given(
+    emg=st.one_of(
+        st.none(),
+        st.text(max_size=8),
+        st.lists(st.one_of(st.text(max_size=8), st.integers(), st.none()), max_size=4),
+        st.integers(),
+    ),
+    unit=st.one_of(
+        st.none(),
+        st.sampled_from(["V", "mV", "uV", "µV", "kV", "", "volt"]),
+        st.text(max_size=4),
+    ),
+    fmt=st.sampled_from(available_formats()),
+)
+def test_any_emg_setting_gives_input_error_or_a_trial(emg, unit, fmt):
+    trial = {"time": np.arange(50) / 100.0, "angle": np.linspace(0, 1, 50),
+             "velocity": np.full(50, 100.0 / 49), "torque": np.ones(50)}  # fmt: skip
+    text = _valid_csv(trial).splitlines()
+    body = [text[0] + ",biceps"] + [f"{row},1e-5" for row in text[1:]]
+    path = _scratch("any.csv", "\n".join(body) + "\n")
+    ds = _read_only_input_errors(path, format=fmt, emg=emg, emg_unit=unit)
+    if ds is not None:
+        assert fmt in ("csv",)  # the others fail on this file or refuse EMG
+        assert ("emg" in ds) == bool(emg)
+
+
+EMG_TABLES = st.dictionaries(
+    st.sampled_from(["columns", "unit", "band", "rms_window", "threshold_sd", "min_duration",
+                     "mvc_fraction", "on_activity", "other"]),
+    st.one_of(st.integers(-5, 600), st.floats(allow_nan=True, allow_infinity=True),
+              st.text(max_size=6), st.lists(st.integers(-5, 600), max_size=3),
+              st.lists(st.text(max_size=4), max_size=3), st.booleans()),
+    max_size=4,
+)  # fmt: skip
+
+
+@given(table=EMG_TABLES)
+def test_any_emg_table_gives_input_error_or_settings(table):
+    from inertiafit.io.emg import EmgSettings, read_emg_settings
+
+    settings = _input_error_or(lambda: read_emg_settings(table, where="study.toml: emg"))
+    if settings is not None:
+        assert isinstance(settings, EmgSettings)
+        assert 0 < settings.band[0] < settings.band[1]
+        assert 0 < settings.rms_window <= 1
+        assert 0 <= settings.min_duration <= 1
+        assert 0 < settings.mvc_fraction <= 1
+        assert settings.threshold_sd > 0
+        assert settings.on_activity in ("exclude", "flag", "stop")

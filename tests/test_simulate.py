@@ -65,6 +65,27 @@ def test_noise_free_torque_is_the_rigid_body_equation():
     assert theta[-1] == pytest.approx(math.pi / 2, abs=1e-6)
 
 
+@pytest.mark.parametrize("speed", [120, 180, 210, 240, 300])
+def test_a_ramp_corner_on_a_sample_puts_no_extra_inertia_in_the_torque(speed):
+    """The ramps' corners fall on samples (0.2 s + 60, 90, ... ms at 1 kHz).
+
+    Their acceleration was the ramp's or zero by the rounding of the times; the velocity's
+    central difference shows half of it, so at 180, 210 and 300 deg/s the torque held half a
+    sample of ``I alpha`` more than the motion and the inertia read +0.3 to +0.5 % high.
+    """
+    from inertiafit.processing.gravity import fit_gravity
+    from inertiafit.processing.inertia import estimate_inertia
+
+    static = exact(kind="quasi-static", speed_deg_s=4, phi=0.2)
+    fast = exact(speed_deg_s=speed, phi=0.2)
+    t = fast["time"].values
+    on_corner = np.isclose(t, fast.attrs["ramp_end"], rtol=0, atol=1e-9).any()
+    assert on_corner  # the case under test
+    estimate = estimate_inertia(fast, fit_gravity(static), lag=0.0)
+    # the filter's rounding of the corners alone: -0.025 % at 120 deg/s, less above
+    assert estimate.inertia / 0.2052 - 1 == pytest.approx(0.0, abs=3e-4)
+
+
 def test_quasi_static_trial_is_90_s_at_1_khz():
     trial = simulate_trial(inertia=0.2, gravity_moment=6.7, kind="quasi-static", rng=1)
     assert trial.sizes["time"] >= 90_000

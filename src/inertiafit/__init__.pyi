@@ -10,10 +10,13 @@ from .inference.sampler import SamplerSettings, sample
 from .io import load_study, read_trial
 from .mounting import Mounting
 from .pipeline.batch import run_many
+from .pipeline.export import run_export
 from .pipeline.study import analyse_study, run_study
 from .planning.design import Design, NoiseLevels
 from .planning.planner import plan
 from .posterior import Posterior, open_posterior
+from .processing.emg import emg_activity
+from .report.propagate import Propagation, propagate
 
 __version__: str
 
@@ -29,11 +32,13 @@ __all__ = [
     "Observation",
     "Posterior",
     "Prior",
+    "Propagation",
     "SamplerSettings",
     "StudyRefused",
     "__version__",
     "analyse_study",
     "available_priors",
+    "emg_activity",
     "fit",
     "fit_body",
     "load_prior",
@@ -41,8 +46,10 @@ __all__ = [
     "open_posterior",
     "paper_baseline",
     "plan",
+    "propagate",
     "read_trial",
     "reference_posterior",
+    "run_export",
     "run_many",
     "run_study",
     "sample",

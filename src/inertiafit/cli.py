@@ -432,6 +432,116 @@ class _Report(_Command):
         return 0
 
 
+@_command
+class _Export(_Command):
+    name = "export"
+    help = "a results folder's posterior as model files (biorbd .bioMod, OpenSim .osim, JSON)"
+    description = (
+        "Write every body of a folder written by 'run', 'fit' or 'demo' as a segment with its "
+        "mass, centre of mass and inertia tensor about the centre of mass: the posterior "
+        "medians as model.<ext>, with --draws N also N models sampled from the posterior "
+        "(draws/), and export.csv. The dynamometer measures the radius of gyration about one "
+        "axis; the other two come from the body's de Leva prior, or are declared (--radii, "
+        "--ratios, --segment or --declare). See the docs page 'Export to modelling tools'."
+    )
+
+    @staticmethod
+    def arguments(p: argparse.ArgumentParser) -> None:
+        p.add_argument("folder", type=Path, metavar="RESULTS_DIR", help="a results folder")
+        p.add_argument(
+            "--format",
+            required=True,
+            metavar="FORMAT",
+            help="biomod (biorbd), osim (OpenSim 4) or json",
+        )
+        _add_out(p, None, "output folder, replaced whole")
+        p.add_argument(
+            "--draws",
+            type=_count,
+            metavar="N",
+            help="also write N models sampled from the posterior (draws/)",
+        )
+        _add_seed(p, "seed of the draws (default 0)")
+        p.add_argument(
+            "--declare", type=Path, metavar="FILE", help="a TOML file of [bodies.<name>] tables"
+        )
+        p.add_argument(
+            "--radii",
+            nargs="+",
+            default=[],
+            metavar="BODY=LONG,CROSS",
+            help="BODY's radii of gyration about its long and cross axis (m)",
+        )
+        p.add_argument(
+            "--ratios",
+            nargs="+",
+            default=[],
+            metavar="BODY=LONG,CROSS",
+            help="the same as multiples of the measured radius",
+        )
+        p.add_argument(
+            "--segment",
+            nargs="+",
+            default=[],
+            metavar="BODY=TABLE:SEGMENT",
+            help="BODY's other radii from an anthropometric table (de-leva-male:forearm)",
+        )
+        p.add_argument(
+            "--long-axis",
+            default="+x",
+            metavar="AXIS",
+            help="the body axis from the joint to the centre of mass: +x (default), y, -z, ... "
+            "(a negative one as --long-axis=-y)",
+        )
+        p.add_argument(
+            "--joint-axis",
+            default="z",
+            metavar="AXIS",
+            help="the body axis that is the dynamometer axis (default z)",
+        )
+
+    @staticmethod
+    def run(args: argparse.Namespace) -> int:
+        from inertiafit.pipeline.export import run_export
+        from inertiafit.report.export import declared_radii
+
+        declared = {}
+        for option, items in (
+            ("--radii", args.radii),
+            ("--ratios", args.ratios),
+            ("--segment", args.segment),
+        ):
+            for item in items:
+                body, sep, value = item.partition("=")
+                if option == "--segment":
+                    table, colon, segment = value.partition(":")
+                    if not sep or not body or not colon:
+                        raise InputError(f"{option}: expected BODY=TABLE:SEGMENT, got {item!r}")
+                    entry: dict = {"table": table, "segment": segment}
+                else:
+                    try:
+                        numbers = [float(v) for v in value.split(",")]
+                    except ValueError:
+                        numbers = []
+                    if not sep or not body or len(numbers) != 2:
+                        raise InputError(f"{option}: expected BODY=LONG,CROSS, got {item!r}")
+                    kind = "radius" if option == "--radii" else "ratio"
+                    entry = {f"{kind}_long": numbers[0], f"{kind}_cross": numbers[1]}
+                declared[body] = declared_radii(body, entry, where=option)
+        run_export(
+            args.folder,
+            fmt=args.format,
+            out=args.out,
+            draws=args.draws,
+            seed=args.seed,
+            declarations=args.declare,
+            declared=declared,
+            long_axis=args.long_axis,
+            joint_axis=args.joint_axis,
+        )
+        return 0
+
+
 def _pairs(items: list[str], option: str, what: str) -> dict[str, float]:
     """``KEY=NUMBER`` items as a dict (the option's message names it)."""
     out = {}

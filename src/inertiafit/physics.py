@@ -21,6 +21,7 @@ __all__ = [
     "curve_at_mass",
     "gravity_moment",
     "inertia",
+    "joint_moment",
     "maximum_com_distance",
     "minimum_mass",
     "moved_moments",
@@ -71,6 +72,25 @@ def inertia(mass: ArrayLike, radius_of_gyration: ArrayLike, com_distance: ArrayL
 def gravity_moment(mass: ArrayLike, com_distance: ArrayLike, gravity: float = GRAVITY) -> NDArray:
     """Largest gravitational moment about the joint, ``m g x`` (N m)."""
     return np.asarray(mass) * gravity * np.asarray(com_distance)
+
+
+def joint_moment(
+    inertia: ArrayLike,
+    gravity_moment: ArrayLike,
+    angle: ArrayLike,
+    acceleration: ArrayLike,
+    phase: float = 0.0,
+) -> NDArray:
+    """Moment about the joint that turns the body: ``I alpha + M_g sin(theta + phi)`` (N m).
+
+    The rigid-body part of the dynamometer's equation (``tau`` less its offset ``c``):
+    positive in the direction of increasing ``theta``; ``theta + phi`` is the angle from
+    the hanging position (the gravity vertical), so gravity resists a lift from it.
+    Arrays broadcast (draws against time samples).
+    """
+    return np.asarray(inertia) * np.asarray(acceleration) + np.asarray(gravity_moment) * np.sin(
+        np.asarray(angle) + phase
+    )
 
 
 def minimum_mass(inertia: ArrayLike, gravity_moment: ArrayLike, gravity: float = GRAVITY):

@@ -48,6 +48,7 @@ __all__ = [
     "Table",
     "available_tables",
     "load_table",
+    "principal_radius_ratios",
     "prior_table",
     "resolve_table",
     "segment_values",
@@ -81,11 +82,16 @@ _SEGMENT_KEYS = {
     "radius",
     "rg_proximal",
     "rg_distal",
+    "radius_sagittal",
+    "radius_longitudinal",
     "parts",
     "spread",
     "unsupported",
 }
 _FRACTIONS = ("mass", "com", "radius")
+#: Optional fractions of a row: the parallel-axis check's radii, and the other two radii about
+#: the CoM (de Leva's), read only by :func:`principal_radius_ratios`.
+_OPTIONAL = ("rg_proximal", "rg_distal", "radius_sagittal", "radius_longitudinal")
 _SEGMENT_ALIASES = {
     "leg": "shank",
     "lowerleg": "shank",
@@ -269,7 +275,7 @@ def load_table(path: Path) -> Table:
             raise InputError(f"{here}: unknown key '{bad[0]}'")
         fractions: dict[str, dict[str, float]] = {}
         if not row.get("parts") and not row.get("unsupported"):
-            for key in (*_FRACTIONS, "rg_proximal", "rg_distal"):
+            for key in (*_FRACTIONS, *_OPTIONAL):
                 if key in row:
                     for sex, v in _fraction(row[key], f"{here}.{key}", sexes).items():
                         fractions.setdefault(sex, {})[key] = v
@@ -484,6 +490,68 @@ def segment_values(
     description = f"{who}, body mass {mass_total:g} kg, {sizes}"
     source = f"{tab.citation}; spread (sd_log) {_fmt_spread(sd_log)}: {tab.spread_source}"
     return SegmentValues(m, x, rho, sd_log, description, source)
+
+
+def principal_radius_ratios(
+    table: str, segment: str, sex: str | None = None, *, where: str = "anthropometric"
+) -> tuple[float, float, SegmentValues]:
+    """The other two radii of gyration about the CoM as multiples of the measured one.
+
+    The measured radius is the table's ``radius`` (de Leva's transverse one: rotation in the
+    sagittal plane about the medio-lateral axis). Returns ``(sagittal / transverse,
+    longitudinal / transverse, values)``: the radius about the antero-posterior axis and
+    about the segment's long axis over the transverse radius, and the segment's values for a
+    unit body mass and segment length (for its description and spreads). A composite (de
+    Leva's forearm + hand) is combined as :func:`segment_values` combines it, its parts in
+    line at the table's mean length ratio: about the composite CoM, the transverse and
+    sagittal moments add each part's ``m (r^2 + (x_i - x)^2)``, the longitudinal ones each
+    part's ``m r^2`` (every part's CoM lies on the long axis). The ratios do not depend on
+    body mass or segment length.
+
+    Raises
+    ------
+    InputError
+        The table gives no sagittal and longitudinal radii for this segment (Dempster's give
+        one radius only), or an unknown table or segment.
+    """
+    values = segment_values(table, segment, 1.0, 1.0, sex=sex, where=where)
+    tab, sex_key = resolve_table(table, sex, where=where)
+    seg = _segment(tab, segment, where)
+    parts = seg.parts or (seg.name,)
+    for part in parts:
+        if not {"radius_sagittal", "radius_longitudinal"} <= set(
+            tab.segments[part].fractions[sex_key]
+        ):
+            raise InputError(
+                f"{where}: {tab.title.split(',')[0]} gives one radius of gyration for "
+                f"'{part}', not the sagittal and longitudinal ones; declare the other two radii"
+            )
+    lengths = {parts[0]: 1.0}
+    for part in parts[1:]:
+        lengths[part] = (
+            tab.segments[part].mean_length_mm[sex_key]
+            / tab.segments[parts[0]].mean_length_mm[sex_key]
+        )
+    rows, offset = [], 0.0
+    for part in parts:
+        f = tab.segments[part].fractions[sex_key]
+        length = lengths[part]
+        rows.append(
+            (
+                f["mass"],
+                offset + f["com"] * length,
+                f["radius"] * length,
+                f["radius_sagittal"] * length,
+                f["radius_longitudinal"] * length,
+            )
+        )
+        offset += length
+    m = sum(r[0] for r in rows)
+    x = sum(r[0] * r[1] for r in rows) / m
+    trans = sum(r[0] * (r[2] ** 2 + (r[1] - x) ** 2) for r in rows)
+    sag = sum(r[0] * (r[3] ** 2 + (r[1] - x) ** 2) for r in rows)
+    long = sum(r[0] * r[4] ** 2 for r in rows)
+    return math.sqrt(sag / trans), math.sqrt(long / trans), values
 
 
 def _fmt_spread(sd_log: dict[str, float]) -> str:

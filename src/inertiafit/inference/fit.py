@@ -243,6 +243,7 @@ def build_tree(
                     "name": model.priors[b].name,
                     "reference": model.priors[b].reference,
                     "distribution": model.priors[b].distribution,
+                    "anthropometric": model.priors[b].anthropometric,
                 }
                 for b in bodies
             }

@@ -124,6 +124,10 @@ class Prior:
         ``{"kind": "lognormal", "median": .., "sd_log": ..}`` or
         ``{"kind": "truncated-normal", "mean": .., "sd": ..}`` (SI units; the truncation bounds
         are ``lower``/``upper``). A parameter missing here is uniform on its bounds.
+    anthropometric : dict[str, str]
+        For a prior from an anthropometric table: its ``table``, ``sex`` and ``segment`` as
+        given (``inertiafit export`` reads the segment's other radii of gyration from them);
+        empty otherwise.
     """
 
     name: str
@@ -135,6 +139,7 @@ class Prior:
     reference: dict[str, Any] = field(default_factory=dict)
     path: Path | None = None
     distribution: dict[str, dict[str, Any]] = field(default_factory=dict)
+    anthropometric: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         # Built directly (not by parse_prior): a missing key would fail later as a KeyError.
@@ -324,7 +329,9 @@ def parse_prior(
     """
     if not isinstance(table, dict):
         raise InputError(f"{where}: expected a table of prior parameters, got {table!r}")
+    segment: dict[str, str] = {}
     if "anthropometric" in table:
+        segment = {k: str(table[k]) for k in ("anthropometric", "sex", "segment") if k in table}
         table = anthropometric.prior_table(table, where=where)
     unknown = sorted(set(table) - _TOP_KEYS)
     if unknown:
@@ -405,6 +412,7 @@ def parse_prior(
         reference=ref,
         path=path,
         distribution=distribution,
+        anthropometric=segment,
     )
 
 
@@ -593,6 +601,7 @@ def priors_from_posterior(post: Posterior) -> dict[str, Prior]:
             source=str(about.get(body, {}).get("source", "")),
             reference=dict(about.get(body, {}).get("reference", {})),
             distribution=dict(about.get(body, {}).get("distribution", {})),
+            anthropometric=dict(about.get(body, {}).get("anthropometric", {})),
         )
         for body in post.bodies
     }

@@ -27,6 +27,7 @@
     window = [0.10, 0.22]               # optional manual acceleration window (s)
     torque_sign = -1                    # optional, +1 or -1 ("motion": see apply_torque_sign)
     lag = 0.003                         # optional (also in [defaults]): fixed torque lag (s)
+    emg = ["biceps", "triceps"]         # optional (also in [defaults]): EMG columns to read
     [[trials]]                          # a second mounting: its own condition
     file = "data/C_quasistatic.csv"
     bodies = ["attachment", "weight"]
@@ -39,6 +40,8 @@
     lag = "estimate"                    # or seconds, fixed for every trial
     lag_bounds = [-0.02, 0.02]          # s, search range of the estimated lag
     max_lag_spread = 0.001              # s, lags further from the study's median are flagged
+    [emg]                               # optional; EMG of every trial and its activity check
+    columns = ["biceps", "triceps"]     # (inertiafit.io.emg: unit, band, rms_window, ...)
 
 :func:`load_study` checks all of it and returns a :class:`Study`; every problem is one
 :class:`~inertiafit.errors.InputError` line naming the manifest and the key path, such as
@@ -104,6 +107,7 @@ from inertiafit._checks import (
     check_positive,
 )
 from inertiafit.errors import InputError
+from inertiafit.io.emg import EmgSettings, read_emg_settings
 from inertiafit.io.readers import (
     available_formats,
     check_calibration,
@@ -112,7 +116,8 @@ from inertiafit.io.readers import (
     read_trial,
     reader_options,
 )
-from inertiafit.io.readers.registry import recognised_format
+from inertiafit.io.readers.registry import carries_emg, recognised_format
+from inertiafit.io.readers.validation import check_emg
 from inertiafit.io.shipped import (
     CURVE_JOINTS,
     PASSIVE_ENTRIES,
@@ -170,6 +175,7 @@ TOP_KEYS = (
     "calibration",
     "passive",
     "postures",
+    "emg",
 )
 BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES, "living")
 #: Keys of the ``[passive]`` table: the living body's joint, where the device's zero sits on it,
@@ -195,6 +201,7 @@ DEFAULT_KEYS = (
     "options",
     "lag",
     "posture",
+    "emg",
 )
 #: Keys of the top-level ``[calibration]`` table (:class:`Calibration`).
 CALIBRATION_KEYS = ("torque_gain_sd", "angle_offset_sd", "lag", "lag_bounds", "max_lag_spread")
@@ -392,6 +399,11 @@ class TrialSpec:
         The trial's posture (a key of :attr:`Study.postures`), its own ``posture`` or
         ``[defaults] posture``; ``""`` when the manifest defines no postures. Postures do not
         split conditions: a condition is what is mounted.
+    emg : tuple of str
+        EMG columns (or analog labels) read with the trial: its own ``emg``, else
+        ``[defaults] emg``, else ``[emg] columns``; empty when none.
+    emg_unit : str or None
+        ``[emg] unit`` (``V``, ``mV``, ``µV``), where the file does not say; ``None``: volts.
     """
 
     file: Path
@@ -409,6 +421,8 @@ class TrialSpec:
     index: int = 0
     lag: float | None = None
     posture: str = ""
+    emg: tuple[str, ...] = ()
+    emg_unit: str | None = None
 
     @property
     def bodies(self) -> tuple[str, ...]:
@@ -423,9 +437,11 @@ class TrialSpec:
         """The settings this trial is read with, for provenance (plain JSON-able values).
 
         ``format``, ``columns``, ``units``, ``calibration``, ``options`` (defaults merged in),
-        ``torque_sign`` and ``window`` (``None`` when the window is detected).
+        ``torque_sign`` and ``window`` (``None`` when the window is detected); ``emg`` and
+        ``emg_unit`` only when the trial has EMG channels (a trial without keeps the settings
+        it always had).
         """
-        return {
+        settings: dict[str, Any] = {
             "format": self.format,
             "columns": dict(self.columns),
             "units": dict(self.units),
@@ -434,6 +450,10 @@ class TrialSpec:
             "torque_sign": self.torque_sign,
             "window": list(self.window) if self.window is not None else None,
         }
+        if self.emg:
+            settings["emg"] = list(self.emg)
+            settings["emg_unit"] = self.emg_unit or "V"
+        return settings
 
 
 @dataclass(frozen=True)
@@ -466,6 +486,8 @@ class Study:
     postures : dict of str to Posture
         The ``[postures]`` tables, in manifest order; empty when none (every trial then in one
         posture with no gravity rotation).
+    emg : EmgSettings or None
+        The ``[emg]`` table (:mod:`inertiafit.io.emg`); ``None`` when the manifest has none.
     """
 
     name: str
@@ -479,6 +501,7 @@ class Study:
     calibration: Calibration = field(default_factory=Calibration)
     passive: PassivePrior | None = None
     postures: dict[str, Posture] = field(default_factory=dict)
+    emg: EmgSettings | None = None
 
     @property
     def living_body(self) -> str:
@@ -530,7 +553,7 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
         ``spec.torque_sign`` (:func:`inertiafit.io.trial.apply_torque_sign`), with extra attrs
         ``condition``, ``kind``, ``torque_sign`` and, when set, ``speed`` (deg/s),
         ``window`` (s, two numbers), ``lag`` (s, the torque channel's fixed lag) and
-        ``posture`` (its name).
+        ``posture`` (its name); with ``spec.emg``, the variable ``emg`` (V).
 
     Raises
     ------
@@ -544,6 +567,7 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
         columns=spec.columns or None,
         units=spec.units or None,
         calibration=spec.calibration or None,
+        **_emg_arguments(spec),
         **spec.options,
     )
     trial = apply_torque_sign(trial, spec.torque_sign, kind=spec.kind)
@@ -557,6 +581,11 @@ def read_trial_spec(spec: TrialSpec) -> xr.Dataset:
     if spec.posture:
         trial.attrs["posture"] = spec.posture
     return trial
+
+
+def _emg_arguments(spec: TrialSpec) -> dict[str, Any]:
+    """``emg`` and ``emg_unit`` for :func:`read_trial`, or nothing for a trial without EMG."""
+    return {"emg": list(spec.emg), "emg_unit": spec.emg_unit} if spec.emg else {}
 
 
 def file_sha256(path: str | Path) -> str:
@@ -708,6 +737,8 @@ def _settings(table: Mapping[str, Any], *, where: str) -> dict[str, Any]:
         )
     if "lag" in table:
         out["lag"] = _lag(table["lag"], where=f"{where}.lag")
+    if "emg" in table:
+        out["emg"] = check_emg(table["emg"], where=f"{where}.emg")
     return out
 
 
@@ -783,6 +814,7 @@ def load_study(path: str | Path) -> Study:
     living = next((b for b, spec in bodies.items() if spec.living), "")
     passive = _passive(doc.get("passive"), living=living, where=where)
     postures = _postures(doc.get("postures", {}), where=where)
+    emg = read_emg_settings(doc["emg"], where=f"{where}: emg") if "emg" in doc else None
     raw_defaults = _table(
         doc.get("defaults", {}), where=f"{where}: defaults", what="reader settings"
     )
@@ -823,6 +855,7 @@ def load_study(path: str | Path) -> Study:
             where=where,
             postures=postures,
             living=living,
+            emg=emg,
         )
         for i, entry in enumerate(raw_trials)
     ]
@@ -868,6 +901,7 @@ def load_study(path: str | Path) -> Study:
         calibration=calibration,
         passive=passive,
         postures=postures,
+        emg=emg,
     )
 
 
@@ -1214,6 +1248,7 @@ def _trial(
     where: str,
     postures: Mapping[str, Posture],
     living: str,
+    emg: EmgSettings | None = None,
 ) -> TrialSpec:
     here = f"{where}: trials[{i}]"
     entry = _table(entry, where=here, what="file, bodies, kind, ...")
@@ -1303,6 +1338,14 @@ def _trial(
                     "missing; the analog format needs { scale, offset, unit } per channel "
                     "(value = scale x volts + offset)",
                 )
+    muscles, emg_from = _trial_emg(own, defaults, emg, here=here, where=where)
+    if muscles and not carries_emg(fmt):
+        raise _fail(
+            emg_from,
+            f"format '{fmt}' has no EMG channels (formats with EMG: "
+            f"{', '.join(f for f in available_formats() if carries_emg(f))}); remove emg for "
+            "this trial (emg = [])",
+        )
     allowed = reader_options(fmt)
     for option in merged["options"]:
         if option not in allowed:
@@ -1327,4 +1370,24 @@ def _trial(
         index=i,
         lag=own.get("lag", defaults.get("lag")),
         posture=posture,
+        emg=muscles,
+        emg_unit=emg.unit if emg is not None and muscles else None,
     )
+
+
+def _trial_emg(
+    own: Mapping[str, Any],
+    defaults: Mapping[str, Any],
+    emg: EmgSettings | None,
+    *,
+    here: str,
+    where: str,
+) -> tuple[tuple[str, ...], str]:
+    """A trial's EMG columns (its own, ``[defaults]``'s, ``[emg]``'s) and where they were set."""
+    if "emg" in own:
+        return own["emg"], f"{here}.emg"
+    if "emg" in defaults:
+        return defaults["emg"], f"{where}: defaults.emg"
+    if emg is not None:
+        return emg.columns, f"{where}: emg.columns"
+    return (), ""

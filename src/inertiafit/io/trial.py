@@ -11,7 +11,13 @@ A Trial is the contract between the readers and the processing stage:
   median time step to 12 significant digits), ``format`` (the reader's name), ``torque_kind``
   (``"signed"``, or ``"magnitude"`` when the file writes the torque without its sign) and
   ``flags`` (a tuple of one-line strings: what was corrected or noticed while reading, such as
-  a velocity sign reversed to follow the angle).
+  a velocity sign reversed to follow the angle);
+- when the file's EMG channels are read (``emg`` of the readers and the manifest), a variable
+  ``emg`` (V, float64, dims ``muscle`` and ``time``) with the muscle names (the file's column
+  names or analog labels) as coordinate ``muscle``. EMG shares the trial's time line: every
+  reader that carries EMG reads it with the dynamometer's channels at the file's full rate
+  (Vicon devices at 1500 Hz, C3D analog at 1 kHz), never decimated. A trial without EMG has
+  neither the variable nor the coordinate.
 
 :func:`make_trial` is the only way readers build one: it checks what every later stage relies
 on (finite values, increasing and evenly sampled time, enough samples, a velocity that is the
@@ -38,6 +44,7 @@ from inertiafit.io.units import QUANTITIES, SI_UNITS
 __all__ = [
     "GAP_FACTOR",
     "MAGNITUDE_FLAG",
+    "MAX_EMG",
     "MAX_MAGNITUDE",
     "MIN_SAMPLES",
     "MIN_SWEEP",
@@ -63,6 +70,9 @@ MIN_SAMPLES = 10
 #: dynamometer, and far below where squares and sums of squares overflow (a torque of 1e308
 #: gave a NaN inertia and an overflow warning, and the error named the manifest's condition).
 MAX_MAGNITUDE = 1e9
+#: Largest size (V) of an EMG sample: amplifiers output +-10 V at most; a value beyond this is
+#: a corrupt cell or microvolts read as volts.
+MAX_EMG = 100.0
 #: A time step longer than this multiple of the median step is a gap (lost samples).
 GAP_FACTOR = 1.5
 #: A time step shorter than this multiple of the median step is uneven sampling (a repeated or
@@ -131,6 +141,7 @@ def make_trial(
     units: Mapping[str, str] | None = None,
     flags: Sequence[str] = (),
     torque_magnitude: str | None = None,
+    emg: Mapping[str, ArrayLike] | None = None,
 ) -> xr.Dataset:
     """Check four channels in SI units and build a Trial dataset.
 
@@ -188,7 +199,8 @@ def make_trial(
         does not strictly increase, if a time step exceeds ``GAP_FACTOR`` times the median step
         (a gap) or falls short of ``SHORT_STEP_FACTOR`` times it, if the velocity is a unit
         factor away from the angle's derivative, or if the columns look swapped (the velocity
-        follows the derivative of another channel than the angle).
+        follows the derivative of another channel than the angle); an EMG channel of another
+        length, with a non-finite value or beyond ``MAX_EMG`` volts.
     """
     names = {q: q for q in QUANTITIES}
     if columns:
@@ -290,7 +302,7 @@ def make_trial(
     if evidence:
         notes.append(f"{MAGNITUDE_FLAG} ({evidence})")
 
-    data_vars = {
+    data_vars: dict[str, Any] = {
         q: (
             "time",
             arrays[q],
@@ -309,11 +321,50 @@ def make_trial(
         dataset_attrs.update({k: v for k, v in attrs.items() if k != "flags"})
         notes = [str(f) for f in attrs.get("flags", ())] + notes
     dataset_attrs["flags"] = tuple(dict.fromkeys(notes))
-    return xr.Dataset(
-        data_vars,
-        coords={"time": ("time", t, {"units": SI_UNITS["time"], "long_name": "time"})},
-        attrs=dataset_attrs,
-    )
+    coords: dict[str, Any] = {
+        "time": ("time", t, {"units": SI_UNITS["time"], "long_name": "time"})
+    }
+    if emg:
+        muscles, signals = _emg_channels(emg, n, source=source, where=where, row_word=row_word)
+        data_vars["emg"] = (
+            ("muscle", "time"),
+            signals,
+            {"units": "V", "long_name": "electromyogram"},
+        )
+        coords["muscle"] = ("muscle", muscles, {"long_name": "muscle (EMG channel)"})
+    return xr.Dataset(data_vars, coords=coords, attrs=dataset_attrs)
+
+
+def _emg_channels(
+    emg: Mapping[str, ArrayLike], n: int, *, source: str, where: NDArray, row_word: str
+) -> tuple[list[str], NDArray[np.float64]]:
+    """The muscle names and a (muscle, time) array of volts, checked like the channels."""
+    muscles = [str(m) for m in emg]
+    rows = []
+    for muscle, values in zip(muscles, emg.values(), strict=True):
+        array = np.asarray(values, dtype=np.float64)
+        if array.ndim != 1 or array.size != n:
+            raise InputError(
+                f"{source}: EMG column '{muscle}' has shape {array.shape}, expected {n} values, "
+                "one per sample of the trial"
+            )
+        bad = ~np.isfinite(array)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputError(
+                f"{source}: EMG column '{muscle}' has a missing or non-finite value "
+                f"({float(array[i])}) at {row_word} {where[i]}; values must be finite numbers"
+            )
+        big = np.abs(array) > MAX_EMG
+        if big.any():
+            i = int(np.argmax(big))
+            raise InputError(
+                f"{source}: EMG column '{muscle}' holds {array[i]:.4g} V at {row_word} "
+                f"{where[i]}, beyond {MAX_EMG:g} V, which no EMG amplifier outputs (a corrupt "
+                "value, or the wrong emg unit?)"
+            )
+        rows.append(array)
+    return muscles, np.vstack(rows)
 
 
 @dataclass(frozen=True)
@@ -465,14 +516,15 @@ def _swapped_columns(
 ) -> str | None:
     """The message for columns mapped to the wrong channels, or ``None``.
 
-    The velocity channel does not follow the angle's derivative (:func:`_follows_cleanly`);
-    if another channel follows the derivative of another, much better than the declared pair
-    does, the file's columns hold the channels in another order: a torque column holding the
+    The velocity channel does not follow the angle's derivative (:func:`_follows_cleanly`,
+    nor loosely, :func:`_follows`); if another channel follows the derivative of another, the
+    file's columns hold the channels in another order: a torque column holding the
     angle reads as a torque that never turns negative (which ``torque_sign`` cannot fix), an
     angle column holding the torque as gravity at the wrong angles.
     """
     channels = ("angle", "velocity", "torque")
-    declared = _follows(time, arrays["angle"], arrays["velocity"])
+    if _follows(time, arrays["angle"], arrays["velocity"]) is not None:
+        return None  # the declared pair follows too (a sinusoid also follows its derivative)
     found = []
     for angle, velocity in permutations(channels, 2):
         if (angle, velocity) != ("angle", "velocity"):
@@ -481,9 +533,7 @@ def _swapped_columns(
                 found.append((check.spread, angle, velocity, check))
     if not found:
         return None
-    spread, angle, velocity, check = min(found, key=lambda f: f[0])
-    if declared is not None and declared.spread <= spread * 1.1:  # not clearly the better
-        return None
+    _, angle, velocity, check = min(found, key=lambda f: f[0])
     torque = next(c for c in channels if c not in (angle, velocity))
     mapping = {"angle": angle, "velocity": velocity, "torque": torque}
     moved = [c for c in channels if mapping[c] != c]

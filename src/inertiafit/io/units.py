@@ -22,11 +22,13 @@ from inertiafit.errors import InputError
 __all__ = [
     "ACCEPTED",
     "DEG",
+    "EMG_UNITS",
     "FT_LBF",
     "IN_LBF",
     "QUANTITIES",
     "SI_UNITS",
     "canonical_unit",
+    "emg_unit",
     "from_si",
     "si_factors",
     "to_si",
@@ -118,6 +120,41 @@ def _normalise(unit: str) -> str:
     for sep in ("·", "⋅", "-", "."):
         text = text.replace(sep, "*")
     return "*".join(text.split())
+
+
+#: Units of an EMG channel and their factor to volts (the Trial's ``emg`` is in V).
+EMG_UNITS = {"V": 1.0, "mV": 1e-3, "µV": 1e-6}
+#: Spellings of the EMG units, after lower-casing: ``u`` and the Greek mu stand for the micro
+#: sign.
+_EMG_ALIASES = {
+    "v": "V",
+    "volt": "V",
+    "volts": "V",
+    "mv": "mV",
+    "µv": "µV",
+    "\u03bcv": "µV",
+    "uv": "µV",
+}
+
+
+def emg_unit(unit: object, *, where: str) -> str:
+    """Return the canonical spelling (``V``, ``mV``, ``µV``) of an EMG channel's unit.
+
+    ``uV`` and the Greek letter mu are read as ``µV``; case does not matter.
+
+    Raises
+    ------
+    InputError
+        If ``unit`` is not a string or not a voltage unit; the message lists the accepted ones.
+    """
+    if not isinstance(unit, str):
+        raise InputError(f"{where}: EMG unit must be a string, got {unit!r}")
+    found = _EMG_ALIASES.get(unit.strip().lower())
+    if found is None:
+        raise InputError(
+            f"{where}: unknown EMG unit {unit!r} (accepted: {', '.join(EMG_UNITS)}, or uV)"
+        )
+    return found
 
 
 def si_factors(quantity: str) -> dict[str, float]:

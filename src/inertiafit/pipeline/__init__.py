@@ -6,7 +6,9 @@
 - :mod:`~inertiafit.pipeline.demo`: :func:`run_demo` (``demo``);
 - :mod:`~inertiafit.pipeline.batch`: :func:`run_many` (``run-many``: many studies, on Dask);
 - :mod:`~inertiafit.pipeline.plan`: :func:`run_plan` (``plan``: predicted widths of candidate
-  designs, from the planner of :mod:`inertiafit.planning`).
+  designs, from the planner of :mod:`inertiafit.planning`);
+- :mod:`~inertiafit.pipeline.export`: :func:`run_export` (``export``: a results folder's
+  posterior as biorbd, OpenSim or JSON model files).
 """
 
 from __future__ import annotations

@@ -14,6 +14,10 @@ The steps, in the order a study runs them (``docs/processing.md`` explains each 
    its sensitivity to the gravity model;
 5. :func:`speed_effect`: per-speed summaries, one-way ANOVA and Tukey HSD per condition.
 
+:func:`emg_activity` finds the stretches of a trial where a muscle's EMG is active against its
+rest level (band-pass, RMS envelope :func:`emg_envelope`, rest mean + k SD held for a minimum
+duration).
+
 :func:`process_study` runs steps 1-4 over every trial of a study manifest
 (:class:`ProcessedStudy`: a row per trial, the gravity model per condition, the filtered traces).
 Problems found in a trial travel as ``flags`` in what these functions return, never as warnings.
@@ -21,6 +25,7 @@ Problems found in a trial travel as ``flags`` in what these functions return, ne
 
 from __future__ import annotations
 
+from inertiafit.processing.emg import emg_activity, emg_envelope
 from inertiafit.processing.filtering import lowpass, lowpass_array, sampling_rate
 from inertiafit.processing.gravity import (
     GravityFit,
@@ -42,6 +47,8 @@ __all__ = [
     "LagEstimate",
     "ProcessedStudy",
     "effective_sample_size",
+    "emg_activity",
+    "emg_envelope",
     "estimate_inertia",
     "estimate_lag",
     "find_window",

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -10,7 +10,7 @@ import xarray as xr
 
 from inertiafit.errors import InputError
 from inertiafit.io.readers.registry import register_reader
-from inertiafit.io.readers.tables import load_table
+from inertiafit.io.readers.tables import emg_columns
 from inertiafit.io.readers.validation import DEFAULT_UNITS, calibrated_unit, check_calibration
 from inertiafit.io.trial import make_trial
 from inertiafit.io.units import QUANTITIES, to_si
@@ -27,6 +27,8 @@ def read_analog(
     calibration: Mapping[str, Any] | None = None,
     delimiter: str = ",",
     decimal: str = ".",
+    emg: Sequence[str] | None = None,
+    emg_unit: str | None = None,
 ) -> xr.Dataset:
     """Read DAQ channels in volts and apply the manifest's linear calibration.
 
@@ -48,6 +50,11 @@ def read_analog(
         ``{"scale": float, "offset": float = 0, "unit": str}``; all three are required.
     delimiter, decimal : str, optional
         As for :func:`~inertiafit.io.readers.csv.read_csv`.
+    emg : sequence of str, optional
+        EMG columns (not calibrated: the voltage the DAQ recorded), read into the Trial's
+        ``emg`` (V) at the file's own rate.
+    emg_unit : str, optional
+        Their unit, ``V`` (default), ``mV`` or ``µV``.
 
     Returns
     -------
@@ -72,10 +79,12 @@ def read_analog(
     for channel, (_, _, cal_unit) in cal.items():
         unit_of[channel] = calibrated_unit(path, channel, cal_unit, units)
     names = {q: q for q in QUANTITIES} | dict(columns or {})
-    volts, lines = load_table(path, names, delimiter=delimiter, decimal=decimal)
+    volts, signals, lines = emg_columns(path, emg, emg_unit, names, delimiter, decimal)
     si = [to_si(volts["time"], "time", unit_of["time"], where=f"{path}: units.time")]
     for channel in QUANTITIES[1:]:
         scale, offset, _ = cal[channel]
         where = f"{path}: calibration.{channel}.unit"
         si.append(to_si(scale * volts[channel] + offset, channel, unit_of[channel], where=where))
-    return make_trial(*si, source=str(path), format="analog", columns=names, lines=lines)
+    return make_trial(
+        *si, source=str(path), format="analog", columns=names, lines=lines, emg=signals
+    )

@@ -14,7 +14,7 @@ from __future__ import annotations
 import io
 import struct
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +25,13 @@ from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
 from inertiafit.io.readers.registry import available_formats, looks_like_c3d, register_reader
-from inertiafit.io.readers.validation import calibrated_unit, check_calibration
+from inertiafit.io.readers.validation import (
+    calibrated_unit,
+    check_calibration,
+    resolve_emg_unit,
+)
 from inertiafit.io.trial import make_trial
-from inertiafit.io.units import ACCEPTED, QUANTITIES, canonical_unit, to_si
+from inertiafit.io.units import ACCEPTED, EMG_UNITS, QUANTITIES, canonical_unit, to_si
 
 __all__ = ["C3D_DEFAULT_LABELS", "read_c3d"]
 
@@ -59,8 +63,10 @@ def read_c3d(
     columns: Mapping[str, str] | None = None,
     units: Mapping[str, str] | None = None,
     calibration: Mapping[str, Any] | None = None,
+    emg: Sequence[str] | None = None,
+    emg_unit: str | None = None,
 ) -> xr.Dataset:
-    """Read the angle, velocity and torque analog channels of a C3D file.
+    """Read the angle, velocity and torque analog channels of a C3D file, and any EMG ones.
 
     Each channel is found by its ``ANALOG:LABELS`` entry (surrounding spaces ignored; a
     case-insensitive match if there is no exact one). Its stored value (after the file's own
@@ -85,6 +91,12 @@ def read_c3d(
         ``{channel: {"scale": float, "offset": float = 0, "unit": str}}``, value
         ``= scale * stored + offset`` in ``unit`` (default ``units.<channel>``, else deg, deg/s,
         N m). A scale may be negative and large (e.g. -1.44e5 N m/V).
+    emg : sequence of str, optional
+        Analog labels of EMG channels (``Voltage.2`` ...), matched as the channels are; read
+        into the Trial's ``emg`` (V) at the analog rate, like every analog channel.
+    emg_unit : str, optional
+        ``V``, ``mV`` or ``µV`` for EMG channels whose ``ANALOG:UNITS`` is empty (default V);
+        contradicting the file is an error.
 
     Returns
     -------
@@ -123,6 +135,19 @@ def read_c3d(
         label = (columns or {}).get(channel, C3D_DEFAULT_LABELS[channel])
         found[channel] = _find_label(path, labels, label.strip(), channel)
 
+    signals = {}
+    for muscle in emg or ():
+        index = _find_label(path, labels, muscle.strip(), "emg", setting="emg")
+        if index in found.values():
+            raise InputError(
+                f"{path}: emg: analog channel {muscle!r} is a channel of the dynamometer, not an "
+                "EMG one"
+            )
+        unit = resolve_emg_unit(
+            path, labels[index], meta["units"][index], emg_unit, said_by="ANALOG:UNITS"
+        )
+        signals[labels[index]] = EMG_UNITS[unit] * analog[index]
+
     si = [meta["time"]]
     for channel in QUANTITIES[1:]:
         index = found[channel]
@@ -136,6 +161,7 @@ def read_c3d(
         format="c3d",
         columns=names,
         attrs={"analog_labels": ",".join(labels[found[q]] for q in QUANTITIES[1:])},
+        emg=signals,
     )
 
 
@@ -201,14 +227,16 @@ def _strings(reader: Any, key: str) -> list[str]:
     return [values] if isinstance(values, str) else list(np.ravel(values))
 
 
-def _find_label(path: Path, labels: list[str], label: str, channel: str) -> int:
+def _find_label(
+    path: Path, labels: list[str], label: str, channel: str, *, setting: str = ""
+) -> int:
     hits = [i for i, name in enumerate(labels) if name == label]
     if not hits:
         hits = [i for i, name in enumerate(labels) if name.lower() == label.lower()]
     if not hits:
         raise InputError(
             f"{path}: analog channel {label!r} not found (ANALOG:LABELS: {', '.join(labels)}); "
-            f"set columns.{channel} in the manifest"
+            f"set {setting or f'columns.{channel}'} in the manifest"
         )
     if len(hits) > 1:
         raise InputError(

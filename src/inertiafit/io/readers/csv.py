@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import xarray as xr
 
 from inertiafit.io.readers.registry import register_reader
-from inertiafit.io.readers.tables import load_table
+from inertiafit.io.readers.tables import emg_columns
 from inertiafit.io.readers.validation import DEFAULT_UNITS, reject_calibration
 from inertiafit.io.trial import make_trial
 from inertiafit.io.units import QUANTITIES, to_si
@@ -26,6 +26,8 @@ def read_csv(
     calibration: Mapping[str, Any] | None = None,
     delimiter: str = ",",
     decimal: str = ".",
+    emg: Sequence[str] | None = None,
+    emg_unit: str | None = None,
 ) -> xr.Dataset:
     """Read a generic CSV trial: a header row, then one row per sample.
 
@@ -43,6 +45,10 @@ def read_csv(
         Field separator (default ``","``; ``";"`` for exports with a decimal comma).
     decimal : str, optional
         Decimal mark (default ``"."``).
+    emg : sequence of str, optional
+        EMG columns, read into the Trial's ``emg`` (V) at the file's own rate.
+    emg_unit : str, optional
+        Their unit, ``V`` (default), ``mV`` or ``µV``.
 
     Returns
     -------
@@ -58,6 +64,6 @@ def read_csv(
     reject_calibration(path, calibration, "csv")
     names = {q: q for q in QUANTITIES} | dict(columns or {})
     unit_of = DEFAULT_UNITS | dict(units or {})
-    values, lines = load_table(path, names, delimiter=delimiter, decimal=decimal)
+    values, signals, lines = emg_columns(path, emg, emg_unit, names, delimiter, decimal)
     si = [to_si(values[q], q, unit_of[q], where=f"{path}: units.{q}") for q in QUANTITIES]
-    return make_trial(*si, source=str(path), format="csv", columns=names, lines=lines)
+    return make_trial(*si, source=str(path), format="csv", columns=names, lines=lines, emg=signals)

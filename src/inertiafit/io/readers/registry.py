@@ -19,17 +19,20 @@ from typing import Any
 import xarray as xr
 
 from inertiafit.errors import InputError
-from inertiafit.io.readers.validation import check_columns, check_units
+from inertiafit.io.readers.validation import check_columns, check_emg, check_units
+from inertiafit.io.units import emg_unit as canonical_emg_unit
 
 __all__ = [
     "BINARY_FORMATS",
     "COMMON_PARAMETERS",
+    "EMG_PARAMETERS",
     "READERS",
     "SNIFF_BYTES",
     "Reader",
     "available_formats",
     "binary_formats",
     "binary_kind",
+    "carries_emg",
     "looks_like_c3d",
     "read_trial",
     "reader_options",
@@ -46,6 +49,9 @@ READERS: dict[str, Reader] = {}
 BINARY_FORMATS: set[str] = set()
 #: Parameters every reader takes; any others are the reader's own options.
 COMMON_PARAMETERS = ("path", "columns", "units", "calibration")
+#: Parameters of a reader whose format can carry EMG channels (the names, their unit); a reader
+#: without them has none, and :func:`read_trial` refuses ``emg`` for it.
+EMG_PARAMETERS = ("emg", "emg_unit")
 #: How many bytes from the start of a file :func:`binary_kind` looks at.
 SNIFF_BYTES = 4096
 #: Processor-type byte of a C3D parameter section: Intel, DEC, MIPS (the C3D manual).
@@ -170,8 +176,20 @@ def recognised_format(path: str | Path) -> str | None:
     return fmt if fmt in BINARY_FORMATS else None
 
 
+def carries_emg(format: str) -> bool:
+    """Whether a registered format's reader reads EMG channels (has ``emg`` and ``emg_unit``).
+
+    Raises
+    ------
+    InputError
+        If the format is not registered.
+    """
+    params = inspect.signature(_get_reader(format, where="format")).parameters
+    return all(p in params for p in EMG_PARAMETERS)
+
+
 def reader_options(format: str) -> tuple[str, ...]:
-    """Return the option names a format's reader accepts beyond columns/units/calibration.
+    """Return the option names a format's reader accepts beyond columns/units/calibration/emg.
 
     Parameters
     ----------
@@ -189,7 +207,8 @@ def reader_options(format: str) -> tuple[str, ...]:
         If the format is not registered.
     """
     func = _get_reader(format, where="format")
-    return tuple(p for p in inspect.signature(func).parameters if p not in COMMON_PARAMETERS)
+    common = (*COMMON_PARAMETERS, *EMG_PARAMETERS)
+    return tuple(p for p in inspect.signature(func).parameters if p not in common)
 
 
 def _get_reader(format: object, *, where: str) -> Reader:
@@ -207,6 +226,8 @@ def read_trial(
     columns: Mapping[str, str] | None = None,
     units: Mapping[str, str] | None = None,
     calibration: Mapping[str, Mapping[str, Any]] | None = None,
+    emg: list[str] | tuple[str, ...] | None = None,
+    emg_unit: str | None = None,
     **options: Any,
 ) -> xr.Dataset:
     """Read one trial file into a Trial dataset in SI units.
@@ -229,6 +250,13 @@ def read_trial(
     calibration : mapping, optional
         For ``analog`` and ``c3d``: per channel ``{"scale": ..., "offset": ..., "unit": ...}``
         meaning ``value = scale * volts + offset`` in ``unit``.
+    emg : list of str, optional
+        EMG channels to read (column names, or analog labels of a C3D file), for the formats
+        that carry them (``csv``, ``analog``, ``c3d``, ``vicon``); the Trial gains a variable
+        ``emg`` in volts (dims ``muscle``, ``time``). Refused by the other formats.
+    emg_unit : str, optional
+        ``V``, ``mV`` or ``µV`` (``uV``) of the EMG channels where the file does not say
+        (default V); contradicting the file is an error.
     **options
         Options of the format's reader (see :func:`reader_options`).
 
@@ -236,7 +264,8 @@ def read_trial(
     -------
     xarray.Dataset
         The Trial: coordinate ``time`` (s); variables ``angle`` (rad), ``velocity`` (rad/s),
-        ``torque`` (N m); attrs ``source``, ``sampling_rate`` (Hz), ``format``.
+        ``torque`` (N m); attrs ``source``, ``sampling_rate`` (Hz), ``format``; with ``emg``,
+        the variable ``emg`` (V) and coordinate ``muscle``.
 
     Raises
     ------
@@ -264,6 +293,16 @@ def read_trial(
             raise InputError(_not_text_message(path, kind, format))
     columns = check_columns(columns, where=f"{path}: columns")
     units = check_units(units, where=f"{path}: units")
+    muscles = check_emg(emg, where=f"{path}: emg")
+    if emg_unit is not None:
+        emg_unit = canonical_emg_unit(emg_unit, where=f"{path}: emg_unit")
+    if muscles or emg_unit is not None:
+        if not carries_emg(format):
+            raise InputError(
+                f"{path}: emg: format '{format}' has no EMG channels (formats with EMG: "
+                f"{', '.join(f for f in READERS if carries_emg(f))}); remove emg"
+            )
+        options = {**options, "emg": muscles, "emg_unit": emg_unit}
     return reader(path, columns=columns, units=units, calibration=calibration, **options)
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -11,8 +11,9 @@ from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
 from inertiafit.io.readers.validation import header_listing
+from inertiafit.io.units import EMG_UNITS, emg_unit
 
-__all__ = ["load_table"]
+__all__ = ["emg_columns", "load_table"]
 
 
 def load_table(
@@ -22,6 +23,7 @@ def load_table(
     delimiter: str = ",",
     decimal: str = ".",
     hint: str = "columns",
+    hints: Mapping[str, str] | None = None,
 ) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.int64]]:
     """Read the named columns of a delimited file with a header row as float arrays.
 
@@ -40,6 +42,8 @@ def load_table(
     hint : str, optional
         The manifest table to name in the message about a missing column
         (``"<hint>.<key>"``).
+    hints : mapping of str to str, optional
+        Key -> the manifest setting to name instead, for some keys (``"emg"``).
 
     Returns
     -------
@@ -88,8 +92,9 @@ def load_table(
     for key, name in wanted.items():
         if name not in present:
             listed = header_listing(present, wanted.values())
+            setting = (hints or {}).get(key, f"{hint}.{key}")
             raise InputError(
-                f"{path}: column {name!r} not found ({listed}); set {hint}.{key} in the manifest"
+                f"{path}: column {name!r} not found ({listed}); set {setting} in the manifest"
             )
         if present.count(name) > 1:
             raise InputError(
@@ -134,3 +139,37 @@ def load_table(
             )
         out[key] = converted.to_numpy(dtype=np.float64, na_value=np.nan)
     return out, lines
+
+
+def emg_columns(
+    path: Path,
+    emg: Sequence[str] | None,
+    unit: str | None,
+    names: Mapping[str, str],
+    delimiter: str,
+    decimal: str,
+) -> tuple[dict[str, NDArray[np.float64]], dict[str, NDArray[np.float64]], NDArray[np.int64]]:
+    """The trial's channels and its EMG columns (in V) of a table with a header row.
+
+    For the ``csv`` and ``analog`` readers: ``names`` maps the channels to their columns, and
+    ``emg`` names EMG columns in ``unit`` (default V; the header says nothing of units).
+    Returns the channels' values, the EMG columns in volts by name, and the line numbers.
+    """
+    muscles = tuple(emg or ())
+    taken = {n: q for q, n in names.items()}
+    for muscle in muscles:
+        if muscle in taken:
+            raise InputError(
+                f"{path}: emg: column {muscle!r} is the {taken[muscle]} channel, not an EMG one"
+            )
+    factor = EMG_UNITS[emg_unit(unit, where=f"{path}: emg unit")] if unit is not None else 1.0
+    wanted = dict(names) | {f"emg:{m}": m for m in muscles}
+    values, lines = load_table(
+        path,
+        wanted,
+        delimiter=delimiter,
+        decimal=decimal,
+        hints={f"emg:{m}": "emg" for m in muscles},
+    )
+    signals = {m: factor * values.pop(f"emg:{m}") for m in muscles}
+    return values, signals, lines

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from inertiafit._checks import check_finite
 from inertiafit.errors import InputError
-from inertiafit.io.units import QUANTITIES, canonical_unit
+from inertiafit.io.units import QUANTITIES, canonical_unit, emg_unit
 
 __all__ = [
     "CALIBRATION_KEYS",
@@ -24,9 +24,11 @@ __all__ = [
     "check_calibration",
     "check_channel_table",
     "check_columns",
+    "check_emg",
     "check_units",
     "header_listing",
     "reject_calibration",
+    "resolve_emg_unit",
     "resolve_units",
 ]
 
@@ -287,3 +289,86 @@ def resolve_units(
         else:
             out[q] = user_unit if user_unit is not None else defaults[q]
     return out
+
+
+def check_emg(emg: object, *, where: str) -> tuple[str, ...]:
+    """Check an ``emg`` setting: a list of EMG column names (or analog labels).
+
+    Parameters
+    ----------
+    emg : list of str or None
+        The names, each a non-empty string, none twice; ``None`` or ``[]``: no EMG.
+    where : str
+        ``"<file>: <key path>"`` for error messages.
+
+    Returns
+    -------
+    tuple of str
+        The names, in order; ``()`` for none.
+
+    Raises
+    ------
+    InputError
+        If it is not a list of distinct non-empty strings.
+    """
+    if emg is None:
+        return ()
+    if isinstance(emg, str) or not isinstance(emg, list | tuple):
+        raise InputError(
+            f'{where}: expected a list of EMG column names such as ["biceps", "triceps"], '
+            f"got {emg!r}"
+        )
+    for name in emg:
+        if not isinstance(name, str) or not name.strip():
+            raise InputError(f"{where}: expected EMG column names (strings), got {name!r}")
+    if len(set(emg)) != len(emg):
+        twice = next(n for n in emg if list(emg).count(n) > 1)
+        raise InputError(f"{where}: EMG column {twice!r} is listed twice")
+    return tuple(emg)
+
+
+def resolve_emg_unit(
+    path: Path, name: str, declared: str | None, given: str | None, *, said_by: str
+) -> str:
+    """The unit of an EMG channel: what the file declares, else ``given``, else volts.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for messages.
+    name : str
+        The channel's column name or label.
+    declared : str or None
+        The file's unit for it (a units row, ``ANALOG:UNITS``), ``None`` or ``""`` if silent.
+    given : str or None
+        The manifest's ``[emg] unit`` (or ``read_trial(emg_unit=...)``).
+    said_by : str
+        What in the file states the unit, for messages.
+
+    Returns
+    -------
+    str
+        ``V``, ``mV`` or ``µV``.
+
+    Raises
+    ------
+    InputError
+        A unit that is not a voltage (the file's or the user's), or a user's unit that
+        contradicts the file's.
+    """
+    user = emg_unit(given, where=f"{path}: emg unit") if given is not None else None
+    if declared:
+        try:
+            file_unit = emg_unit(declared, where=str(path))
+        except InputError:
+            raise InputError(
+                f"{path}: EMG channel {name!r} is in {declared!r} ({said_by}), not a voltage "
+                "(V, mV, uV); is it an EMG channel?"
+            ) from None
+        if user is not None and user != file_unit:
+            raise InputError(
+                f"{path}: emg unit {user!r} contradicts the file, whose {said_by} says "
+                f"{declared!r} for {name!r}; remove the unit or correct the file"
+            )
+        return file_unit
+    return user or "V"

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import io
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,9 +33,13 @@ from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
 from inertiafit.io.readers.registry import register_reader
-from inertiafit.io.readers.validation import reject_calibration, resolve_units
+from inertiafit.io.readers.validation import (
+    reject_calibration,
+    resolve_emg_unit,
+    resolve_units,
+)
 from inertiafit.io.trial import make_trial
-from inertiafit.io.units import QUANTITIES, to_si
+from inertiafit.io.units import EMG_UNITS, QUANTITIES, to_si
 
 __all__ = ["VICON_DEFAULT_COLUMNS", "read_vicon"]
 
@@ -53,6 +57,8 @@ def read_vicon(
     columns: Mapping[str, str] | None = None,
     units: Mapping[str, str] | None = None,
     calibration: Mapping[str, Any] | None = None,
+    emg: Sequence[str] | None = None,
+    emg_unit: str | None = None,
 ) -> xr.Dataset:
     """Read the "Devices" section of a Vicon Nexus CSV export.
 
@@ -75,6 +81,13 @@ def read_vicon(
         torque column labelled ``N`` is read as N m (the Con-Trex moment is labelled so).
     calibration : None
         Not used by this format.
+    emg : sequence of str, optional
+        EMG columns (``LTibA1`` ...), matched as the channels are; read into the Trial's
+        ``emg`` (V) at the device rate (1500 Hz for a Con-Trex with a Myon), like every device
+        column.
+    emg_unit : str, optional
+        ``V``, ``mV`` or ``µV`` for EMG columns whose units cell is empty (default V);
+        contradicting the units row is an error.
 
     Returns
     -------
@@ -118,6 +131,15 @@ def read_vicon(
     names = [c.strip() for c in _cells(lines[start + 3])]
     unit_cells = [c.strip() for c in _cells(lines[start + 4])]
     index = {key: _column(path, names, name, key, start + 4) for key, name in _wanted(columns)}
+    muscles = tuple(emg or ())
+    for muscle in muscles:
+        at = _column(path, names, muscle, "emg", start + 4)
+        if at in index.values():
+            raise InputError(
+                f"{path}: emg: column {muscle!r} is a column of the dynamometer or the frame "
+                "count, not an EMG one"
+            )
+        index[f"emg:{muscle}"] = at
     declared = {
         q: (unit_cells[index[q]] if index[q] < len(unit_cells) else "") or None
         for q in QUANTITIES[1:]
@@ -133,10 +155,24 @@ def read_vicon(
         said_by=f"units row (line {start + 5})",
     )
 
+    emg_units = {
+        m: resolve_emg_unit(
+            path,
+            m,
+            unit_cells[index[f"emg:{m}"]] if index[f"emg:{m}"] < len(unit_cells) else None,
+            emg_unit,
+            said_by=f"units row (line {start + 5})",
+        )
+        for m in muscles
+    }
+
     first = start + 5
     stop = _section_end(path, lines, first)
     table = _numbers(path, lines[first:stop], first, index, names)
     frame, sub = table.pop("frame"), table.pop("sub")
+    signals = {
+        names[index[f"emg:{m}"]]: EMG_UNITS[emg_units[m]] * table.pop(f"emg:{m}") for m in muscles
+    }
     line_numbers = np.arange(first, first + frame.size, dtype=np.int64) + 1
     time = _time(path, frame, sub, rate, line_numbers)
     si = [time] + [
@@ -150,6 +186,7 @@ def read_vicon(
         columns={"time": "Frame/Sub Frame"} | {q: names[index[q]] for q in QUANTITIES[1:]},
         lines=line_numbers,
         attrs={"torque_unit_in_file": torque_in_file},
+        emg=signals,
     )
 
 
@@ -182,11 +219,12 @@ def _column(path: Path, names: list[str], name: str, key: str, row: int) -> int:
         hits = [i for i, n in enumerate(names) if n.lower() == name.strip().lower()]
     where = f"line {row + 1}"
     if not hits:
-        hint = (
-            f"set columns.{key} in the manifest"
-            if key in QUANTITIES
-            else "is this a devices export?"
-        )
+        if key == "emg":
+            hint = "set emg in the manifest"
+        elif key in QUANTITIES:
+            hint = f"set columns.{key} in the manifest"
+        else:
+            hint = "is this a devices export?"
         raise InputError(
             f"{path}: column {name!r} not found in the column row ({where}: "
             f"{', '.join(n for n in names if n)}); {hint}"

@@ -1,0 +1,201 @@
+"""The manifest's ``[emg]`` table: the study's EMG channels and how their activity is judged.
+
+::
+
+    [emg]
+    columns = ["biceps", "triceps"]     # EMG columns (or analog labels) of every trial
+    unit = "mV"                         # V (default), mV, or µV ("uV"), where the file is silent
+    band = [20, 450]                    # Hz, band-pass (SENIAM)
+    rms_window = 0.05                   # s, RMS envelope
+    threshold_sd = 3                    # rest mean + k SD of the envelope (Hodges & Bui 1996)
+    min_duration = 0.05                 # s above the threshold for a stretch to count
+    mvc_fraction = 0.02                 # and above this fraction of an MVC's peak envelope
+    on_activity = "exclude"             # or "flag", "stop": what an active trial does
+
+Each default and its source is in ``docs/processing.md`` (the EMG activity check);
+:class:`EmgSettings` holds them, :func:`read_emg_settings` checks a table.
+:func:`inertiafit.processing.emg.emg_activity` takes its defaults from here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from inertiafit.errors import InputError
+from inertiafit.io.readers.validation import check_emg
+from inertiafit.io.units import emg_unit
+
+__all__ = [
+    "EMG_KEYS",
+    "MAX_EMG_WINDOW",
+    "ON_ACTIVITY",
+    "EmgSettings",
+    "read_emg_settings",
+]
+
+#: Keys of the ``[emg]`` table.
+EMG_KEYS = (
+    "columns",
+    "unit",
+    "band",
+    "rms_window",
+    "threshold_sd",
+    "min_duration",
+    "mvc_fraction",
+    "on_activity",
+)
+#: What a trial with an active stretch does to the study: leave the evidence (``"exclude"``,
+#: the default), stay with a flag (``"flag"``), or refuse the study (``"stop"``).
+ON_ACTIVITY = ("exclude", "flag", "stop")
+#: Longest ``rms_window`` and ``min_duration`` (s) a manifest may give: an EMG window is tens of
+#: milliseconds; a second would smear a reflex over the whole acceleration.
+MAX_EMG_WINDOW = 1.0
+
+
+@dataclass(frozen=True)
+class EmgSettings:
+    """The ``[emg]`` table, with the defaults of published practice.
+
+    Attributes
+    ----------
+    columns : tuple of str
+        EMG columns (or analog labels) read from every trial whose own ``emg`` (or
+        ``[defaults] emg``) does not say otherwise; empty: none here.
+    unit : str or None
+        ``V``, ``mV`` or ``µV`` of the EMG channels where the file does not state it
+        (``None``: volts).
+    band : (float, float)
+        Band-pass (Hz): high-pass 20 Hz, low-pass 450 Hz (SENIAM, Hermens et al. 2000:
+        high-pass 10-20 Hz, low-pass about 500 Hz), the upper edge clipped below the Nyquist
+        frequency.
+    rms_window : float
+        Length (s) of the centred moving RMS envelope: 0.05 (RMS envelopes of 50-100 ms are
+        common; the shorter end keeps onsets sharp).
+    threshold_sd : float
+        ``k`` of the threshold ``rest mean + k SD`` of the envelope: 3 (Hodges & Bui 1996).
+    min_duration : float
+        Seconds the envelope must stay above the threshold for a stretch to count: 0.05, the
+        long end of the 10-50 ms Hodges & Bui (1996) compared. On a real Vicon recording
+        (16.85 s, 14 silent channels) 25 ms let the noise floor cross ``mean + 3 SD`` 24
+        times (peaks 1.4-1.6 x rest), 50 ms twice; a burst of any length whose peak is well
+        above the threshold keeps the envelope above it for about its length plus the RMS
+        window, so a 20 ms reflex burst still counts.
+    mvc_fraction : float
+        With an MVC trial (``kind = "mvc"``, or ``emg_activity(mvc=...)``), a stretch must also
+        exceed this fraction of the MVC's peak envelope: 0.02 (small involuntary responses of
+        healthy people are 2-3 % MVC, Finley et al. 2008). Unused without an MVC.
+    on_activity : {"exclude", "flag", "stop"}
+        What a trial with an active stretch does in a study (default ``"exclude"``).
+    """
+
+    columns: tuple[str, ...] = ()
+    unit: str | None = None
+    band: tuple[float, float] = (20.0, 450.0)
+    rms_window: float = 0.05
+    threshold_sd: float = 3.0
+    min_duration: float = 0.05
+    mvc_fraction: float = 0.02
+    on_activity: str = "exclude"
+
+
+def _number(table: Mapping[str, object], key: str, where: str, what: str) -> float | None:
+    if key not in table:
+        return None
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{where}.{key}: expected {what}, got {value!r}")
+    return float(value)
+
+
+def read_emg_settings(value: object, *, where: str) -> EmgSettings:
+    """Check an ``[emg]`` table and return its :class:`EmgSettings` (defaults filled in).
+
+    Parameters
+    ----------
+    value : mapping
+        The table as TOML gives it.
+    where : str
+        ``"<manifest>: emg"``, the start of every message.
+
+    Returns
+    -------
+    EmgSettings
+
+    Raises
+    ------
+    InputError
+        One line naming the key: not a table, an unknown key, ``columns`` not a list of
+        distinct names, an unknown ``unit``, ``band`` not two increasing positive numbers (Hz),
+        ``rms_window`` not in (0, 1] s, ``threshold_sd`` not positive, ``min_duration`` not in
+        [0, 1] s, ``mvc_fraction`` not in (0, 1], an unknown ``on_activity``.
+    """
+    if not isinstance(value, Mapping):
+        raise InputError(
+            f"{where}: expected a table (columns, unit, band, rms_window, ...), got {value!r}"
+        )
+    for key in value:
+        if key not in EMG_KEYS:
+            raise InputError(f"{where}.{key}: unknown key (allowed: {', '.join(EMG_KEYS)})")
+    out: dict[str, object] = {}
+    if "columns" in value:
+        out["columns"] = check_emg(value["columns"], where=f"{where}.columns")
+    if "unit" in value:
+        out["unit"] = emg_unit(value["unit"], where=f"{where}.unit")
+    if "band" in value:
+        band = value["band"]
+        ok = (
+            isinstance(band, list | tuple)
+            and len(band) == 2
+            and all(
+                isinstance(b, int | float) and not isinstance(b, bool) and math.isfinite(b)
+                for b in band
+            )
+            and 0 < band[0] < band[1]
+        )
+        if not ok:
+            raise InputError(
+                f"{where}.band: expected two increasing positive frequencies [high-pass, "
+                f"low-pass] in Hz such as [20, 450], got {band!r}"
+            )
+        out["band"] = (float(band[0]), float(band[1]))
+    window = _number(value, "rms_window", where, "a window in s (0.05 = 50 ms)")
+    if window is not None:
+        if not 0 < window <= MAX_EMG_WINDOW:
+            raise InputError(
+                f"{where}.rms_window: expected a window in (0, {MAX_EMG_WINDOW:g}] s "
+                f"(0.05 = 50 ms), got {value['rms_window']!r}"
+            )
+        out["rms_window"] = window
+    k = _number(value, "threshold_sd", where, "a number of SDs (3)")
+    if k is not None:
+        if k <= 0:
+            raise InputError(
+                f"{where}.threshold_sd: expected a positive number of SDs (3), got {k!r}"
+            )
+        out["threshold_sd"] = k
+    duration = _number(value, "min_duration", where, "a duration in s (0.025 = 25 ms)")
+    if duration is not None:
+        if not 0 <= duration <= MAX_EMG_WINDOW:
+            raise InputError(
+                f"{where}.min_duration: expected a duration in [0, {MAX_EMG_WINDOW:g}] s "
+                f"(0.025 = 25 ms), got {value['min_duration']!r}"
+            )
+        out["min_duration"] = duration
+    fraction = _number(value, "mvc_fraction", where, "a fraction of the MVC (0.02 = 2 %)")
+    if fraction is not None:
+        if not 0 < fraction <= 1:
+            raise InputError(
+                f"{where}.mvc_fraction: expected a fraction in (0, 1] of the MVC's peak "
+                f"envelope (0.02 = 2 %), got {value['mvc_fraction']!r}"
+            )
+        out["mvc_fraction"] = fraction
+    if "on_activity" in value:
+        action = value["on_activity"]
+        if action not in ON_ACTIVITY:
+            raise InputError(
+                f'{where}.on_activity: expected "exclude", "flag" or "stop", got {action!r}'
+            )
+        out["on_activity"] = action
+    return EmgSettings(**out)  # type: ignore[arg-type]

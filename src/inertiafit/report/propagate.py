@@ -1,0 +1,334 @@
+"""A body's inertial parameters carried into the joint moment of a motion, with their spread.
+
+For a segment turning about its joint the inverse-dynamics moment is the rigid-body part of
+the dynamometer's equation (:func:`inertiafit.physics.joint_moment`)::
+
+    M(t) = I alpha(t) + M_g sin(theta(t) + phi),   I = m (rho^2 + x^2),   M_g = m g x
+
+:func:`propagate` evaluates it for every draw of ``(m, x, rho)`` — a posterior's, a prior's
+(the ±50 % box, a de Leva prior) or any arrays — along one motion, and returns the draws of
+``M(t)``, their median and highest-density band (``arviz_stats.hdi``), and which parameter
+the spread is due to (:meth:`Propagation.shares`):
+
+* **by conditioning** on each of ``m``, ``x``, ``rho`` (first-order sensitivity index):
+  ``S_p(t) = Var(E[M(t) | p]) / Var(M(t))``, estimated by sorting the draws by ``p`` into
+  equal-count bins; the within-bin noise (``mean within-bin variance / draws per bin``) is
+  subtracted. Posterior parameters are strongly correlated along the identification curve,
+  so these shares overlap and need not sum to 1: each says how much of the spread would go
+  if that parameter alone were known;
+* **exactly, by the identified pair**: ``M`` is linear in ``I`` and ``M_g``, so
+  ``Var M = alpha^2 Var I + s^2 Var M_g + 2 alpha s Cov(I, M_g)`` with ``s = sin(theta +
+  phi)``; the three terms over ``Var M`` sum to 1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+from numpy.typing import ArrayLike, NDArray
+
+from inertiafit._checks import check_finite, check_probability, check_seed, check_whole
+from inertiafit.errors import InputError
+from inertiafit.inference.priors import Prior
+from inertiafit.io.readers import read_trial
+from inertiafit.physics import GRAVITY, PARAMETERS, gravity_moment, inertia, joint_moment
+from inertiafit.posterior import Posterior, open_posterior
+from inertiafit.processing.filtering import derivative
+
+__all__ = ["DEFAULT_DRAWS", "SHARE_COLUMNS", "Propagation", "propagate"]
+
+#: Draws taken from a prior, and at most from a posterior.
+DEFAULT_DRAWS = 4000
+#: Columns of :meth:`Propagation.shares`.
+SHARE_COLUMNS = [
+    "share_mass",
+    "share_com_distance",
+    "share_radius_of_gyration",
+    "share_inertia",
+    "share_gravity_moment",
+    "share_covariance",
+]
+
+
+@dataclass(frozen=True)
+class Propagation:
+    """Draws of a joint moment along a motion, and their summaries.
+
+    Attributes
+    ----------
+    time, angle, acceleration : ndarray
+        The motion: s, rad, rad/s^2 (``n`` samples).
+    moments : ndarray
+        ``(draws, n)``: ``M(t)`` of each parameter draw (N m).
+    parameters : dict of str to ndarray
+        The draws of ``mass``, ``com_distance``, ``radius_of_gyration`` (``draws``).
+    inertia, gravity_moment : ndarray
+        The draws of ``I`` (kg m^2) and ``M_g`` (N m).
+    phase : float
+        ``phi`` (rad).
+    hdi_prob : float
+    label : str
+        Where the draws come from (body and posterior, or the prior).
+    """
+
+    time: NDArray
+    angle: NDArray
+    acceleration: NDArray
+    moments: NDArray
+    parameters: dict[str, NDArray]
+    inertia: NDArray
+    gravity_moment: NDArray
+    phase: float
+    hdi_prob: float
+    label: str
+    _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def median(self) -> NDArray:
+        """Median moment at each sample (N m)."""
+        return np.median(self.moments, axis=0)
+
+    @property
+    def hdi(self) -> NDArray:
+        """``(n, 2)``: the highest-density interval of ``hdi_prob`` at each sample (N m)."""
+        if "hdi" not in self._cache:
+            from arviz_stats import hdi
+
+            self._cache["hdi"] = np.asarray(hdi(self.moments, prob=self.hdi_prob, axis=0))
+        return self._cache["hdi"]
+
+    def shares(self, bins: int | None = None) -> pd.DataFrame:
+        """Share of the moment's variance due to each parameter, at each sample.
+
+        ``share_<p>`` for ``m``, ``x``, ``rho`` by conditioning (see the module notes; with
+        ``bins`` equal-count bins, default ``sqrt(draws) / 2`` between 5 and 50), and the
+        exact split by ``I``, ``M_g`` and their covariance. Where the moment does not vary
+        (a single draw) every share is NaN.
+        """
+        m = self.moments
+        n = m.shape[0]
+        k = bins if bins is not None else int(np.clip(np.sqrt(n) / 2, 5, 50))
+        k = check_whole(k, "bins", minimum=2)
+        var = m.var(axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out: dict[str, NDArray] = {}
+            for p in PARAMETERS:
+                order = np.argsort(self.parameters[p], kind="stable")
+                groups = np.array_split(order, min(k, n))
+                means = np.array([m[g].mean(axis=0) for g in groups])
+                sizes = np.array([len(g) for g in groups], dtype=float)[:, None]
+                within = np.array([m[g].var(axis=0) for g in groups])
+                between = (sizes * (means - m.mean(axis=0)) ** 2).sum(axis=0) / n
+                noise = (sizes * within).sum(axis=0) / n / sizes.mean()
+                out[f"share_{p}"] = np.clip(between - noise, 0.0, None) / var
+            a = self.acceleration
+            s = np.sin(self.angle + self.phase)
+            cov = np.cov(self.inertia, self.gravity_moment, ddof=0)
+            out["share_inertia"] = a * a * cov[0, 0] / var
+            out["share_gravity_moment"] = s * s * cov[1, 1] / var
+            out["share_covariance"] = 2 * a * s * cov[0, 1] / var
+        bad = ~(var > 0)
+        frame = pd.DataFrame(out, columns=SHARE_COLUMNS)
+        frame.loc[bad, :] = np.nan
+        return frame
+
+    def table(self) -> pd.DataFrame:
+        """A row per sample: motion, ``median``, ``hdi_lower``, ``hdi_upper``, ``sd``, shares."""
+        band = self.hdi
+        return pd.concat(
+            [
+                pd.DataFrame(
+                    {
+                        "time": self.time,
+                        "angle": self.angle,
+                        "acceleration": self.acceleration,
+                        "median": self.median,
+                        "hdi_lower": band[:, 0],
+                        "hdi_upper": band[:, 1],
+                        "sd": self.moments.std(axis=0, ddof=1)
+                        if len(self.moments) > 1
+                        else np.nan,
+                    }
+                ),
+                self.shares(),
+            ],
+            axis=1,
+        )
+
+    def peak(self) -> pd.Series:
+        """The table's row where the median moment is largest in magnitude.
+
+        With the band's relative half-width ``relative_width`` (half the HDI over the
+        median's magnitude).
+        """
+        table = self.table()
+        row = table.iloc[int(np.argmax(np.abs(table["median"].to_numpy())))].copy()
+        row["relative_width"] = (row["hdi_upper"] - row["hdi_lower"]) / 2 / abs(row["median"])
+        return row
+
+
+def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDArray, NDArray]:
+    """``(time, angle, acceleration)`` of a motion given as arrays, a Trial or a trial file."""
+    if isinstance(motion, str | Path):
+        motion = read_trial(motion, **dict(reader or {}))
+    if isinstance(motion, xr.Dataset):
+        if not {"angle", "velocity"} <= set(motion.data_vars):
+            raise InputError("motion: a Trial needs 'angle' and 'velocity' (rad, rad/s)")
+        time = np.asarray(motion["time"].values, dtype=float)
+        angle = np.asarray(motion["angle"].values, dtype=float)
+        velocity = np.asarray(motion["velocity"].values, dtype=float)
+        return time, angle, derivative(velocity, time)
+    if isinstance(motion, Mapping):
+        missing = [k for k in ("time", "angle") if k not in motion]
+        if missing:
+            raise InputError(f"motion: '{missing[0]}' is missing (time in s, angle in rad)")
+        time = np.asarray(motion["time"], dtype=float)
+        angle = np.asarray(motion["angle"], dtype=float)
+        acceleration = motion.get("acceleration")
+    elif isinstance(motion, tuple) and len(motion) in (2, 3):
+        time, angle = (np.asarray(v, dtype=float) for v in motion[:2])
+        acceleration = motion[2] if len(motion) == 3 else None
+    else:
+        raise InputError(
+            "motion: expected (time, angle) arrays (s, rad), a mapping with 'time' and "
+            f"'angle', a Trial or a trial file, got {type(motion).__name__}"
+        )
+    if time.ndim != 1 or time.shape != angle.shape or time.size < 4:
+        raise InputError("motion: time and angle must be 1-D arrays of the same length (>= 4)")
+    if not (np.all(np.isfinite(time)) and np.all(np.isfinite(angle))):
+        raise InputError("motion: time and angle must be finite")
+    if not np.all(np.diff(time) > 0):
+        raise InputError("motion: time must increase strictly")
+    if acceleration is None:
+        acc = derivative(derivative(angle, time), time)
+    else:
+        acc = np.asarray(acceleration, dtype=float)
+        if acc.shape != time.shape or not np.all(np.isfinite(acc)):
+            raise InputError("motion: 'acceleration' must be finite, one value per time")
+    return time, angle, acc
+
+
+def _draws(
+    source: Any, body: str | None, draws: int | None, rng: np.random.Generator
+) -> tuple[dict[str, NDArray], float | None, str]:
+    """The parameter draws of ``source``, its gravity (or None) and a label."""
+    if isinstance(source, str | Path):
+        path = Path(source)
+        source = open_posterior(path / "posterior.nc" if path.is_dir() else path)
+    if isinstance(source, Prior):
+        size = draws or DEFAULT_DRAWS
+        return source.sample(size, rng), None, f"prior {source.name}"
+    if isinstance(source, Posterior):
+        bodies = source.bodies
+        if body is None:
+            if len(bodies) != 1:
+                raise InputError(f"body: the posterior has bodies {', '.join(bodies)}; name one")
+            body = bodies[0]
+        if body not in bodies:
+            raise InputError(f"body: no body '{body}' in the posterior ({', '.join(bodies)})")
+        values = {p: source.draws(body, p).reshape(-1) for p in PARAMETERS}
+        gravity = float(source.tree["constant_data"]["gravity"])
+        label = f"posterior of {body}"
+    elif isinstance(source, Mapping):
+        missing = [p for p in PARAMETERS if p not in source]
+        if missing:
+            raise InputError(f"posterior: '{missing[0]}' is missing from the draws given")
+        try:
+            arrays = np.broadcast_arrays(*(np.asarray(source[p], dtype=float) for p in PARAMETERS))
+        except ValueError:
+            raise InputError(
+                "posterior: the draws of mass, com_distance, radius_of_gyration differ in length"
+            ) from None
+        values = {p: a.reshape(-1).copy() for p, a in zip(PARAMETERS, arrays, strict=True)}
+        gravity, label = None, "draws given"
+    else:
+        raise InputError(
+            "posterior: expected a Posterior, a posterior.nc or results folder, a Prior or a "
+            f"mapping of draws, got {type(source).__name__}"
+        )
+    n = values["mass"].size
+    if draws is not None and draws < n:
+        index = np.sort(rng.choice(n, size=draws, replace=False))
+        values = {p: v[index] for p, v in values.items()}
+    return values, gravity, label
+
+
+def propagate(
+    posterior: Posterior | Prior | Mapping[str, ArrayLike] | str | Path,
+    motion: Any,
+    *,
+    body: str | None = None,
+    phase: float = 0.0,
+    gravity: float | None = None,
+    hdi_prob: float = 0.95,
+    draws: int | None = None,
+    seed: int = 0,
+    reader: Mapping[str, Any] | None = None,
+) -> Propagation:
+    """The joint moment of a motion for every draw of a body's ``(m, x, rho)``.
+
+    Parameters
+    ----------
+    posterior : Posterior, Prior, mapping or path
+        A :class:`~inertiafit.Posterior` (or its ``posterior.nc``, or a results folder), a
+        :class:`~inertiafit.Prior` (``draws`` independent draws of it: the ±50 % box, a de Leva
+        prior), or arrays ``mass``, ``com_distance``, ``radius_of_gyration`` (SI units).
+    motion : tuple, mapping, Trial or path
+        ``(time, angle)`` or ``(time, angle, acceleration)`` arrays (s, rad, rad/s^2), a
+        mapping with those keys, a Trial (:func:`~inertiafit.read_trial`) or a trial file
+        (read with ``reader``'s options). Without an acceleration it is the angle's second
+        derivative (spectral, :func:`inertiafit.processing.filtering.derivative`): give
+        smooth angles, or a Trial, whose velocity is differentiated once.
+    body : str, optional
+        The body of a posterior with several.
+    phase : float
+        ``phi`` (rad): ``theta + phi`` is the angle from hanging (the gravity vertical).
+    gravity : float, optional
+        m/s^2; default the posterior's, or 9.81.
+    hdi_prob : float
+        Probability of the band.
+    draws : int, optional
+        Draws used: from a prior (default 4000), or at most this many of a posterior's.
+    seed : int
+        Seeds the prior's draws and the choice among a posterior's.
+    reader : mapping, optional
+        Options of :func:`~inertiafit.read_trial` for a trial file (``format``, ``columns``,
+        ``units``).
+
+    Returns
+    -------
+    Propagation
+    """
+    check_probability(hdi_prob, "hdi_prob")
+    check_seed(seed)
+    phase = check_finite(phase, "phase", "rad")
+    if draws is not None:
+        draws = check_whole(draws, "draws")
+    time, angle, acceleration = _motion(motion, reader)
+    rng = np.random.default_rng(seed)
+    values, own_gravity, label = _draws(posterior, body, draws, rng)
+    g = gravity if gravity is not None else (own_gravity or GRAVITY)
+    g = check_finite(g, "gravity", "m/s^2")
+    m, x, rho = (values[p] for p in PARAMETERS)
+    i_joint = inertia(m, rho, x)
+    m_g = gravity_moment(m, x, g)
+    moments = joint_moment(i_joint[:, None], m_g[:, None], angle[None, :], acceleration[None, :],
+                           phase)  # fmt: skip
+    return Propagation(
+        time=time,
+        angle=angle,
+        acceleration=acceleration,
+        moments=moments,
+        parameters=values,
+        inertia=i_joint,
+        gravity_moment=m_g,
+        phase=phase,
+        hdi_prob=hdi_prob,
+        label=label,
+    )
