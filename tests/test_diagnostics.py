@@ -178,6 +178,28 @@ def test_one_trial_outside_the_priors_is_flagged_and_the_study_goes_on(
     assert not (tmp_path / "o").exists()
 
 
+def test_a_prior_box_without_a_solution_marks_its_conditions_trials(
+    base,  # noqa: F811
+    tmp_path,
+    reaches_the_sampler,  # noqa: F811
+):
+    # each value inside what the box allows, the pair not: m >= (M_g/g)^2/I = 2.3 kg > 0.8 kg
+    manifest = copy_of(base, tmp_path)
+    text = manifest.read_text()
+    start = text.index("prior = {")
+    end = text.index("}", start) + 1
+    box = "prior = { mass = 0.5, radius_of_gyration = 0.2, com_distance = 1.0, spread = 0.6 }"
+    manifest.write_text(text[:start] + box + text[end:])
+    _, table = refused_run(
+        manifest,
+        tmp_path / "out",
+        r"prior '\S+': the prior box contains no solution for condition 'attachment': mass "
+        r"upper bound 0\.8 kg is below \(M_g/g\)\^2/I = 2\.3\d* kg",
+    )
+    assert list(table.status) == ["refused"] * 4
+    assert table.loc[FASTS[0], "cause"].startswith("prior '")
+
+
 # -- a condition's M_g scattered far beyond its SEs --------------------------------------------
 
 

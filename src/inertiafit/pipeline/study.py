@@ -204,7 +204,7 @@ def analyse_study(
         model = study_model(processed, priors)
         model.check_feasible()
     except InputError as exc:  # refused before sampling: the per-trial table goes with it
-        refused = getattr(exc, "refused", {})
+        refused = getattr(exc, "refused", {}) or _condition_trials(processed, str(exc))
         raise StudyRefused(
             str(exc), refused=refused, table=processed.diagnostics(refused)
         ) from exc
@@ -283,6 +283,21 @@ def run_study(
     for w in result.warnings:
         echo(f"warning: {w}")
     return result
+
+
+def _condition_trials(processed: ProcessedStudy, message: str) -> dict[str, str]:
+    """The used trials of the condition a message names (``condition 'LABEL'``), to mark.
+
+    A prior box that no point of a condition's evidence reaches is the condition's refusal
+    (:meth:`~inertiafit.inference.model.Model.check_feasible`): its trials are what the table
+    marks, each with the message.
+    """
+    named = [c for c in processed.study.conditions if f"condition '{c}'" in message]
+    if len(named) != 1:
+        return {}
+    trials = processed.trials
+    files = trials.loc[trials["condition"] == named[0], "file"]
+    return {str(f): message for f in files}
 
 
 def _diagnose(exc: StudyRefused, out: str | Path, say: Callable[[str], None]) -> None:
