@@ -105,8 +105,9 @@ def check_trials_in_priors(
     ``gravity_moment`` (not for a living body, whose ``M_g`` is the joint fit's). A value
     beyond the range by more than :data:`PRIOR_RANGE_SE` of its standard errors is outside.
 
-    When the condition's own value is outside too (the median of its fast trials' ``I``, its
-    combined ``M_g``), no point of the priors can explain its trials: the study is refused
+    When the condition's own value is outside too, by more than :data:`PRIOR_RANGE_SE` of its
+    errors (the median of its fast trials' ``I``, give or take their scatter over ``sqrt(n)``
+    or their median SE; its combined ``M_g``, give or take its SE), no point of the priors can explain its trials: the study is refused
     with one line naming those trials and their values against the range (before the
     sampler's feasibility check blames a bound). When only some trials are outside, each gets
     a flag in ``trials`` (changed in place) and a line in the list returned (the warnings).
@@ -139,8 +140,14 @@ def check_trials_in_priors(
             outside = (values < r.low - slack) | (values > r.high + slack)
             if not outside.any():
                 continue
-            if key == "inertia":
-                center, spread = float(np.median(values)), 0.0
+            if key == "inertia":  # the median, give or take its trials' scatter and errors
+                scatter = (
+                    float(np.std(values, ddof=1)) / math.sqrt(len(values))
+                    if len(values) > 1
+                    else 0.0
+                )
+                center = float(np.median(values))
+                spread = PRIOR_RANGE_SE * max(scatter, float(np.median(ses)))
             else:
                 g = gravity[label]
                 center, spread = g.gravity_moment, PRIOR_RANGE_SE * g.gravity_moment_se
