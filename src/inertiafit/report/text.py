@@ -80,7 +80,7 @@ def diagnostics_text(table: pd.DataFrame) -> str:
         if not isinstance(v, int | float) or math.isnan(v):
             return ""
         if isinstance(se, int | float) and math.isfinite(se):
-            return f"{v:.4g} +- {se:.2g}"
+            return f"{v:.4g} +- {se:.2g}" if abs(se) < 100 else f"{v:.4g} +- {se:.0f}"
         return f"{v:.4g}"
 
     header = ["file", "condition", "kind", "speed", "I (kg m^2)", "M_g (N m)", "status", "note"]
