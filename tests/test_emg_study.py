@@ -183,6 +183,11 @@ def test_stop_refuses_the_study_in_one_line(emg_study, tmp_path, skip):
     assert "A_240_02.csv: EMG active: triceps" in message
     assert "x rest" in message
     assert 'on_activity = "stop"' in message
+    # the refused study's table marks the trial (diagnostics.csv)
+    table = info.value.table
+    refused = table[table["status"] == "refused"]
+    assert list(refused["file"]) == ["data/A_240_02.csv"]
+    assert refused["cause"].iloc[0].startswith("EMG active: triceps")
 
 
 def test_a_condition_left_without_fast_trials_is_one_error(tmp_path):

@@ -91,7 +91,12 @@ def test_stop_ends_the_run_at_the_bad_trial(clean_study, tmp_path, capsys, polic
     assert main(["run", str(folder / "study.toml"), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert re.fullmatch(r"inertiafit: error: \S+A_240_02\.csv: only 4 samples; .*", err[-1])
-    assert not out.exists()
+    # nothing but the per-trial table gathered so far, the trial at fault marked (issue 21)
+    assert sorted(p.name for p in out.iterdir()) == [".inertiafit-output", "diagnostics.csv"]
+    table = pd.read_csv(out / "diagnostics.csv").set_index("file")
+    assert table.loc["data/A_240_02.csv", "status"] == "refused"
+    assert table.loc["data/A_240_02.csv", "cause"].startswith("only 4 samples; ")
+    assert table.status.value_counts().to_dict() == {"not reached": 7, "refused": 1}  # reading
 
 
 @pytest.mark.parametrize("case", list(CORRUPT))

@@ -11,7 +11,8 @@ from cases import PRIORS, TRUTH
 
 from inertiafit.cli import main
 from inertiafit.errors import InputError
-from inertiafit.pipeline.study import analyse_study
+from inertiafit.io.outputs import MARKER
+from inertiafit.pipeline.study import DIAGNOSTICS, analyse_study
 from inertiafit.processing.study import TRACE_COLUMNS, process_study
 from inertiafit.simulate import simulate_study
 
@@ -183,7 +184,8 @@ def test_bad_study_input_is_one_line_exit_2_and_leaves_nothing(
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err.startswith("inertiafit: error: ")
     assert re.search(match, err), err
-    assert not out.exists()
+    # a trial that could not be used leaves its per-trial table, and nothing else (issue 21)
+    assert not out.exists() or sorted(p.name for p in out.iterdir()) == [MARKER, DIAGNOSTICS]
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]  # no temp left
 
 

@@ -1,6 +1,6 @@
 # The public API of inertiafit, loaded lazily by lazy_loader.attach_stub (see __init__.py).
 from .baseline import paper_baseline
-from .errors import ConvergenceWarning, InertiafitWarning, InputError
+from .errors import ConvergenceWarning, InertiafitWarning, InputError, StudyRefused
 from .inference.fit import fit, fit_body
 from .inference.model import Condition, Model
 from .inference.observations import Observation
@@ -34,6 +34,7 @@ __all__ = [
     "Prior",
     "Propagation",
     "SamplerSettings",
+    "StudyRefused",
     "__version__",
     "analyse_study",
     "available_priors",

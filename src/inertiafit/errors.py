@@ -12,7 +12,10 @@ in a study's ``warnings``), one channel.
 
 from __future__ import annotations
 
-__all__ = ["ConvergenceWarning", "InertiafitWarning", "InputError"]
+from collections.abc import Mapping
+from typing import Any
+
+__all__ = ["ConvergenceWarning", "InertiafitWarning", "InputError", "StudyRefused"]
 
 
 class InputError(ValueError):
@@ -28,6 +31,29 @@ class InputError(ValueError):
 
     def __init__(self, message: str) -> None:
         super().__init__(" ".join(str(message).split()))
+
+
+class StudyRefused(InputError):
+    """A study that cannot go on to its posterior: the one-line reason and what was gathered.
+
+    Parameters
+    ----------
+    message : str
+        One line, as for :class:`InputError`; it names the trials at fault.
+    refused : mapping of str to str, optional
+        The trials that caused the refusal: file (as in ``trials.csv``) -> the reason, one line.
+    table : pandas.DataFrame, optional
+        The per-trial table gathered so far (``diagnostics.csv``): a row per trial of the
+        manifest, the columns of ``trials.csv`` and ``cause``; ``status`` ``"refused"`` for
+        the trials in ``refused``, ``"not reached"`` for those the study stopped before.
+    """
+
+    def __init__(
+        self, message: str, *, refused: Mapping[str, str] | None = None, table: Any = None
+    ) -> None:
+        super().__init__(message)
+        self.refused: dict[str, str] = dict(refused or {})
+        self.table = table
 
 
 class InertiafitWarning(UserWarning):

@@ -15,24 +15,29 @@ weighed mass and balance point become Gaussians in :func:`study_model` (:func:`m
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inertiafit._checks import check_positive
-from inertiafit.errors import InputError
-from inertiafit.inference.model import Condition, Model
+from inertiafit.errors import InputError, StudyRefused
+from inertiafit.inference.model import Condition, Model, observable_ranges
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.measured import measured_quantity
 from inertiafit.stats import shared_error
 
 if TYPE_CHECKING:  # evidence reads these; importing them would load the processing stack
+    import pandas as pd
+
     from inertiafit.io import Study
+    from inertiafit.processing.gravity import GravityFit
     from inertiafit.processing.study import ProcessedStudy
 
 __all__ = [
+    "PRIOR_RANGE_SE",
+    "check_trials_in_priors",
     "condition_evidence",
     "evidence_from_numbers",
     "measured_evidence",
@@ -79,6 +84,103 @@ def shared_gravity_error(coefficients, covariance, sensitivities) -> tuple[float
     moment = math.hypot(coef[0], coef[1])
     g_m = np.array([coef[0] / moment, coef[1] / moment, 0.0])
     return shared_error(jac, covariance, g_m)
+
+
+#: A trial's value is outside what the priors allow when it misses their range by more than
+#: this many of its own standard errors.
+PRIOR_RANGE_SE = 4.0
+
+
+def check_trials_in_priors(
+    study: Study,
+    trials: pd.DataFrame,
+    gravity: Mapping[str, GravityFit],
+    priors: Mapping[str, Prior],
+) -> list[str]:
+    """Each trial's ``I`` and ``M_g`` against what its condition's priors allow, before sampling.
+
+    For a condition of bodies mounted as they are (no moved body, no added mass), the range
+    of each observable (:func:`~inertiafit.inference.model.observable_ranges`) is held
+    against every usable trial: a fast trial's ``inertia``, a quasi-static trial's
+    ``gravity_moment`` (not for a living body, whose ``M_g`` is the joint fit's). A value
+    beyond the range by more than :data:`PRIOR_RANGE_SE` of its standard errors is outside.
+
+    When the condition's own value is outside too, by more than :data:`PRIOR_RANGE_SE` of its
+    errors (the median of its fast trials' ``I``, give or take their scatter over ``sqrt(n)``
+    or their median SE; its combined ``M_g``, give or take its SE), no point of the priors can explain its trials: the study is refused
+    with one line naming those trials and their values against the range (before the
+    sampler's feasibility check blames a bound). When only some trials are outside, each gets
+    a flag in ``trials`` (changed in place) and a line in the list returned (the warnings).
+
+    ``trials`` are a study's rows as :func:`~inertiafit.processing.study.process_study`
+    gathers them (its ``check_gravity`` passes the quasi-static rows alone, before any fast
+    trial is processed), ``gravity`` each condition's gravity model.
+
+    Raises
+    ------
+    StudyRefused
+        Naming the condition and its trials outside the range (``refused``: file -> reason).
+    """
+    notes: list[str] = []
+    living = study.living_body
+    for label, mounting in study.mountings.items():
+        if not mounting.plain:
+            continue
+        ranges = observable_ranges([priors[b] for b in mounting.bodies], study.gravity)
+        names = ", ".join(f"'{b}'" for b in mounting.bodies)
+        sub = trials[trials["condition"] == label]
+        for key, kind in (("inertia", "fast"), ("gravity_moment", "quasi-static")):
+            if key == "gravity_moment" and living and living in mounting.bodies:
+                continue
+            r = ranges[key]
+            rows = sub[sub["kind"] == kind]
+            values = rows[key].to_numpy(dtype=float)
+            ses = np.nan_to_num(rows[f"{key}_se"].to_numpy(dtype=float))
+            slack = PRIOR_RANGE_SE * ses
+            outside = (values < r.low - slack) | (values > r.high + slack)
+            if not outside.any():
+                continue
+            if key == "inertia":  # the median, give or take its trials' scatter and errors
+                scatter = (
+                    float(np.std(values, ddof=1)) / math.sqrt(len(values))
+                    if len(values) > 1
+                    else 0.0
+                )
+                center = float(np.median(values))
+                spread = PRIOR_RANGE_SE * max(scatter, float(np.median(ses)))
+            else:
+                g = gravity[label]
+                center, spread = g.gravity_moment, PRIOR_RANGE_SE * g.gravity_moment_se
+            allowed = f"the {r.low:.3g} to {r.high:.3g} {r.unit} that the priors of {names} allow"
+            files = rows["file"].to_numpy()[outside]
+            shown = values[outside]
+            if center + spread < r.low or center - spread > r.high:
+                listed = ", ".join(
+                    f"{f} {v:.3g}" for f, v in zip(files[:4], shown[:4], strict=True)
+                )
+                more = f" and {len(files) - 4} more" if len(files) > 4 else ""
+                cause = f"{r.symbol} = {{:.3g}} {r.unit}, outside {allowed}"
+                low, high = f"{np.min(values):.3g}", f"{np.max(values):.3g}"
+                given = low if low == high else f"{low} to {high}"
+                raise StudyRefused(
+                    f"{study.path}: condition '{label}': its {r.trials} give {r.symbol} = "
+                    f"{given} {r.unit} ({listed}{more}), "
+                    f"outside {allowed}: check those trials ({r.causes}?) before the priors",
+                    refused={str(f): cause.format(v) for f, v in zip(files, shown, strict=True)},
+                )
+            for f, v in zip(files, shown, strict=True):
+                flag = (
+                    f"{r.symbol} = {v:.3g} {r.unit} is outside {allowed}, unlike its condition's "
+                    f"{center:.3g} {r.unit}: an outlier? check this trial ({r.causes}?)"
+                )
+                at = trials.index[trials["file"] == f]
+                trials.loc[at, "flags"] = trials.loc[at, "flags"].map(
+                    lambda old, flag=flag: "; ".join(
+                        filter(None, [old if isinstance(old, str) else "", flag])
+                    )
+                )
+                notes.append(f"{study.base_dir / str(f)}: {flag}")
+    return notes
 
 
 def condition_evidence(processed: ProcessedStudy) -> list[Condition]:

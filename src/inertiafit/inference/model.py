@@ -93,6 +93,7 @@ __all__ = [
     "Box",
     "Condition",
     "Model",
+    "ObservableRange",
     "angle_density",
     "angles_at",
     "box_meets",
@@ -101,6 +102,7 @@ __all__ = [
     "feasible_measure",
     "log_curve_integral",
     "log_identified_prior",
+    "observable_ranges",
 ]
 
 HALF_PI = np.pi / 2
@@ -192,43 +194,78 @@ def _reaches(obs: Observation, low: float, high: float) -> bool:
     return obs.center + half >= low and obs.center - half <= high
 
 
-def _check_data_in_box(cond: Condition, prior: Prior, gravity: float) -> None:
-    """A condition's ``M_g`` or ``I`` that no point of its body's box reaches is a data problem.
+@dataclass(frozen=True)
+class ObservableRange:
+    """The values of one observable that a prior box allows, and how a miss is explained.
 
-    Each observable is held alone against the range the box allows (``M_g`` from ``g m x``,
-    ``I`` from ``m (rho^2 + x^2)`` at the box's corners), widened by the likelihood's 1e-4
-    quantiles. A flat or wrongly scaled quasi-static torque, or fast trials of another body, are
-    then said as what they are; the prior's bounds are blamed only when each value alone fits.
+    ``low`` and ``high`` in ``unit``; ``symbol`` (``I``, ``M_g``), ``trials`` (the kind of
+    trials that give it) and ``causes`` (the slips that put it outside) for messages.
     """
-    lo, up = prior.lower, prior.upper
-    ranges = {
-        "gravity_moment": (
-            gravity * lo["mass"] * lo["com_distance"],
-            gravity * up["mass"] * up["com_distance"],
-            cond.gravity_moment,
+
+    low: float
+    high: float
+    symbol: str
+    unit: str
+    trials: str
+    causes: str
+
+
+def observable_ranges(priors: Sequence[Prior], gravity: float) -> dict[str, ObservableRange]:
+    """The ``I`` and ``M_g`` that bodies mounted together can give under their priors.
+
+    Each body's range runs from its box's lower corner to its upper corner (``M_g`` from
+    ``g m x``, ``I`` from ``m (rho^2 + x^2)``); bodies mounted in line add up. Keys
+    ``"inertia"`` and ``"gravity_moment"``.
+    """
+    lo_g = sum(gravity * p.lower["mass"] * p.lower["com_distance"] for p in priors)
+    up_g = sum(gravity * p.upper["mass"] * p.upper["com_distance"] for p in priors)
+    lo_i = sum(
+        p.lower["mass"] * (p.lower["radius_of_gyration"] ** 2 + p.lower["com_distance"] ** 2)
+        for p in priors
+    )
+    up_i = sum(
+        p.upper["mass"] * (p.upper["radius_of_gyration"] ** 2 + p.upper["com_distance"] ** 2)
+        for p in priors
+    )
+    return {
+        "gravity_moment": ObservableRange(
+            lo_g,
+            up_g,
             "M_g",
             "N m",
             "quasi-static trials",
             "a flat, clipped or wrongly scaled torque, too short a sweep",
         ),
-        "inertia": (
-            lo["mass"] * (lo["radius_of_gyration"] ** 2 + lo["com_distance"] ** 2),
-            up["mass"] * (up["radius_of_gyration"] ** 2 + up["com_distance"] ** 2),
-            cond.inertia,
+        "inertia": ObservableRange(
+            lo_i,
+            up_i,
             "I",
             "kg m^2",
             "fast trials",
             "a wrongly scaled torque or velocity, a wrong window",
         ),
     }
-    for low, high, obs, symbol, unit, trials, causes in ranges.values():
-        if obs is None or _reaches(obs, low, high):
+
+
+def _check_data_in_box(cond: Condition, prior: Prior, gravity: float) -> None:
+    """A condition's ``M_g`` or ``I`` that no point of its body's box reaches is a data problem.
+
+    Each observable is held alone against the range the box allows
+    (:func:`observable_ranges`), widened by the likelihood's 1e-4 quantiles. A flat or wrongly
+    scaled quasi-static torque, or fast trials of another body, are then said as what they
+    are; the prior's bounds are blamed only when each value alone fits.
+    """
+    ranges = observable_ranges([prior], gravity)
+    observed = {"gravity_moment": cond.gravity_moment, "inertia": cond.inertia}
+    for key, r in ranges.items():
+        obs = observed[key]
+        if obs is None or _reaches(obs, r.low, r.high):
             continue
         raise InputError(
-            f"condition '{cond.label}': its {trials} give {symbol} = {obs.center:.4g} "
-            f"+- {obs.scale:.2g} {unit}, outside the {low:.4g} to {high:.4g} {unit} that the "
-            f"prior '{prior.name}' of body '{cond.bodies[0]}' allows: check those trials "
-            f"({causes}?) before the prior"
+            f"condition '{cond.label}': its {r.trials} give {r.symbol} = {obs.center:.4g} "
+            f"+- {obs.scale:.2g} {r.unit}, outside the {r.low:.4g} to {r.high:.4g} {r.unit} that "
+            f"the prior '{prior.name}' of body '{cond.bodies[0]}' allows: check those trials "
+            f"({r.causes}?) before the prior"
         )
 
 

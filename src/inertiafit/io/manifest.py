@@ -116,7 +116,7 @@ from inertiafit.io.readers import (
     read_trial,
     reader_options,
 )
-from inertiafit.io.readers.registry import carries_emg
+from inertiafit.io.readers.registry import carries_emg, recognised_format
 from inertiafit.io.readers.validation import check_emg
 from inertiafit.io.shipped import (
     CURVE_JOINTS,
@@ -1298,6 +1298,12 @@ def _trial(
     if speed is not None:
         speed = check_positive(speed, f"{here}.speed", "deg/s")
     window = _window(entry["window"], where=f"{here}.window") if "window" in entry else None
+    if window is not None and kind != "fast":
+        raise _fail(
+            f"{here}.window",
+            f"a {kind} trial has no acceleration window (its gravity fit uses the whole "
+            'sweep); remove it, or set kind = "fast" if this trial is one',
+        )
     offset_body, offset = (
         _offset(entry["offset"], where=f"{here}.offset", bodies=bodies)
         if "offset" in entry
@@ -1320,7 +1326,7 @@ def _trial(
             f"missing; with [postures] every trial names its posture, here or in [defaults] "
             f"(postures: {', '.join(postures)})",
         )
-    fmt = own.get("format", defaults.get("format", "csv"))
+    fmt = own.get("format", defaults.get("format")) or recognised_format(file) or "csv"
     merged: dict[str, dict[str, Any]] = {}
     for key in ("columns", "units", "calibration", "options"):
         merged[key] = {**defaults.get(key, {}), **own.get(key, {})}

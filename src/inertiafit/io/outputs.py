@@ -58,6 +58,7 @@ __all__ = [
     "check_out",
     "check_replaceable",
     "guard_outputs",
+    "holds_only",
     "output_folder",
     "replace_files",
     "write_csv",
@@ -180,6 +181,19 @@ def check_replaceable(out: str | Path) -> None:
                 f"out: {out / entry} has changed since inertiafit wrote it; "
                 "move it out of the folder or choose a new folder"
             )
+
+
+def holds_only(out: str | Path, names: Iterable[str]) -> bool:
+    """Whether ``out`` is missing, empty, or holds nothing of inertiafit's but ``names``.
+
+    A refused run writes its ``diagnostics.csv`` into ``out`` only then: an earlier run's
+    complete outputs are never replaced by the table of a run that failed. Call it after
+    :func:`check_out` (which refuses a folder holding anything inertiafit did not write).
+    """
+    target = _resolve(out)
+    if not target.is_dir():
+        return not target.exists()
+    return set(_listing(target)) <= set(names)
 
 
 # -- checks before any work, and the lock ----------------------------------------------------

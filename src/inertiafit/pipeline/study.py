@@ -5,6 +5,11 @@
 become evidence), :func:`~inertiafit.inference.fit.fit` (the posterior is sampled), the speed
 effect and the paper's estimator — and returns a :class:`~inertiafit.report.result.Result`.
 :func:`run_study` also writes every output (:func:`~inertiafit.report.outputs.write_outputs`).
+
+A study refused before its posterior raises :class:`~inertiafit.errors.StudyRefused`, which
+carries the per-trial table gathered so far; :func:`run_study` prints it and writes it as
+``diagnostics.csv`` (:data:`DIAGNOSTICS`) where that replaces nothing but an earlier refused
+run's table.
 """
 
 from __future__ import annotations
@@ -18,13 +23,13 @@ import pandas as pd
 
 from inertiafit._checks import check_probability, check_seed
 from inertiafit.baseline import BaselineResult, paper_baseline
-from inertiafit.errors import InputError
-from inertiafit.inference.evidence import study_model, study_priors
+from inertiafit.errors import InputError, StudyRefused
+from inertiafit.inference.evidence import check_trials_in_priors, study_model, study_priors
 from inertiafit.inference.fit import fit
 from inertiafit.inference.priors import Prior
 from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
-from inertiafit.io.outputs import check_out, guard_outputs, output_folder
+from inertiafit.io.outputs import check_out, guard_outputs, holds_only, output_folder, write_csv
 from inertiafit.io.shipped import passive_prior_path
 from inertiafit.plotting.style import DEFAULT_FORMATS
 from inertiafit.processing.living import living_tables
@@ -37,9 +42,11 @@ from inertiafit.processing.study import (
 )
 from inertiafit.report.outputs import write_outputs
 from inertiafit.report.result import Result, make_result
+from inertiafit.report.text import diagnostics_text
 from inertiafit.shapes import ideal_body
 
 __all__ = [
+    "DIAGNOSTICS",
     "analyse_study",
     "paper_baselines",
     "run_study",
@@ -47,6 +54,11 @@ __all__ = [
     "study_inputs",
     "study_provenance",
 ]
+
+
+#: The file a refused run writes: its per-trial table (the columns of ``trials.csv`` and
+#: ``cause``).
+DIAGNOSTICS = "diagnostics.csv"
 
 
 def study_ideals(study: Study) -> dict[str, dict[str, float]]:
@@ -180,9 +192,23 @@ def analyse_study(
     say = echo or (lambda _msg: None)
     priors = study_priors(study)
     ideals = study_ideals(study)
-    processed = process_study(study, echo=say)
+
+    def in_priors(trials: pd.DataFrame, gravity: dict) -> list[str]:
+        return check_trials_in_priors(study, trials, gravity, priors)
+
+    # a refusal in there carries the table gathered; M_g is held to the priors before any
+    # fast trial is processed (a wrong gravity model would be blamed on their torque's sign)
+    processed = process_study(study, echo=say, check_gravity=in_priors)
+    try:
+        processed.warnings.extend(in_priors(processed.trials, processed.gravity))
+        model = study_model(processed, priors)
+        model.check_feasible()
+    except InputError as exc:  # refused before sampling: the per-trial table goes with it
+        refused = getattr(exc, "refused", {}) or _condition_trials(processed, str(exc))
+        raise StudyRefused(
+            str(exc), refused=refused, table=processed.diagnostics(refused)
+        ) from exc
     provenance = study_provenance(study, priors, processed)
-    model = study_model(processed, priors)
     say(f"sampling the joint posterior of {len(priors)} bodies")
     trials = processed.all_trials  # trials.csv: skipped trials listed too
     used = processed.trials
@@ -243,9 +269,14 @@ def run_study(
     it may not hold the manifest, a trial file or a prior file.
     """
     say = progress or (lambda msg: print(msg, file=sys.stderr))
+    check_out(out, inputs=[manifest])  # before the manifest is read
     study = load_study(manifest)
     check_out(out, inputs=study_inputs(study))
-    result = analyse_study(study, seed=seed, hdi_prob=hdi_prob, echo=say)
+    try:
+        result = analyse_study(study, seed=seed, hdi_prob=hdi_prob, echo=say)
+    except StudyRefused as exc:
+        _diagnose(exc, out, say)
+        raise
     say(f"writing {out}")
     with output_folder(out) as folder:
         write_outputs(folder, result, formats=formats)
@@ -253,3 +284,37 @@ def run_study(
     for w in result.warnings:
         echo(f"warning: {w}")
     return result
+
+
+def _condition_trials(processed: ProcessedStudy, message: str) -> dict[str, str]:
+    """The used trials of the condition a message names (``condition 'LABEL'``), to mark.
+
+    A prior box that no point of a condition's evidence reaches is the condition's refusal
+    (:meth:`~inertiafit.inference.model.Model.check_feasible`): its trials are what the table
+    marks, each with the message.
+    """
+    named = [c for c in processed.study.conditions if f"condition '{c}'" in message]
+    if len(named) != 1:
+        return {}
+    trials = processed.trials
+    files = trials.loc[trials["condition"] == named[0], "file"]
+    return {str(f): message for f in files}
+
+
+def _diagnose(exc: StudyRefused, out: str | Path, say: Callable[[str], None]) -> None:
+    """Show a refused study's table and write it as ``diagnostics.csv``.
+
+    The table is printed (``say``) and written into ``out`` through the output folder's swap
+    when ``out`` is new, empty or holds only an earlier :data:`DIAGNOSTICS`; an earlier run's
+    outputs are kept as they are. A line before the error says where the table is.
+    """
+    if exc.table is None or exc.table.empty:
+        return
+    say(f"per-trial table of the refused study ({DIAGNOSTICS}):")
+    say(diagnostics_text(exc.table))
+    if holds_only(out, [DIAGNOSTICS]):
+        with output_folder(out) as folder:
+            write_csv(exc.table, folder / DIAGNOSTICS)
+        say(f"per-trial table written to {Path(out) / DIAGNOSTICS}")
+    else:
+        say(f"{DIAGNOSTICS} not written: {out} holds an earlier run's outputs, kept as they are")

@@ -59,6 +59,7 @@ __all__ = [
     "estimate_inertia",
     "gravity_coefficients",
     "saturated_run",
+    "torque_sign_hint",
 ]
 
 #: Identical samples at a channel's largest magnitude that count as saturation (clipping).
@@ -71,13 +72,21 @@ LAG_SOURCES = ("estimated", "manifest")
 
 def _sign_hint(trial: xr.Dataset, torque_sign: int) -> str:
     """What to change about the torque's sign: never the value already set."""
-    given = trial.attrs.get("torque_sign", 1)
+    return torque_sign_hint(trial.attrs.get("torque_sign", 1), torque_sign)
+
+
+def torque_sign_hint(given: int | str, torque_sign: int = 1) -> str:
+    """What to change about a trial's torque sign, given its manifest's ``torque_sign``.
+
+    Never the value already set: a trial read with ``torque_sign = -1`` is told to set 1, one
+    signed by ``"motion"`` to check its columns.
+    """
     if given == "motion":
         return (
             'torque sign: torque_sign = "motion" is set; check that the columns hold this '
             "trial's torque and velocity"
         )
-    if given * torque_sign == -1:
+    if int(given) * torque_sign == -1:
         return "torque sign: the torque is already flipped (torque_sign = -1); set torque_sign = 1"
     return "torque sign: set torque_sign = -1 for this trial in the manifest"
 
@@ -189,6 +198,7 @@ def estimate_inertia(
     order: int = ORDER,
     lag: float | None = None,
     lag_bounds: Sequence[float] = LAG_BOUNDS,
+    refuse_negative: bool = True,
 ) -> InertiaEstimate:
     """Estimate the moment of inertia from a fast trial.
 
@@ -217,6 +227,10 @@ def estimate_inertia(
         (:func:`~inertiafit.processing.lag.estimate_lag`). ``lag=0`` removes none.
     lag_bounds : (float, float)
         Search range (s) of the estimated lag.
+    refuse_negative : bool
+        Refuse (or flag) a negative inertia here (default). ``False``: return it as it is, for
+        a caller that judges a condition's fast trials together (a torque sign is advised only
+        where they agree: :func:`~inertiafit.processing.plausibility.inertia_sign_checks`).
 
     Returns
     -------
@@ -320,7 +334,7 @@ def estimate_inertia(
         value, se, frame_mean, sensitivity, residuals, n, sl = _through_origin(
             time, net_f, shifted, alpha_f, win, terms, lag_sensitivity
         )
-    if value < 0:
+    if value < 0 and refuse_negative:
         if value + NEGATIVE_SE * se < 0:
             raise InputError(
                 f"{source}: torque: inertia {value:.4g} kg m^2 is negative (the torque opposes "

@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from inertiafit.errors import InputError
+from inertiafit.errors import InputError, StudyRefused
 from inertiafit.io import Study, TrialSpec, load_study
 from inertiafit.io.emg import EmgSettings
 from inertiafit.io.manifest import file_sha256
@@ -53,10 +53,19 @@ from inertiafit.processing.living import (
     passive_basis,
     posture_geometry,
 )
-from inertiafit.processing.plausibility import fast_trial_flags
+from inertiafit.processing.plausibility import (
+    SignVerdict,
+    check_quasi_static_sweep,
+    cruise_slope,
+    fast_trial_flags,
+    gravity_scale_flag,
+    gravity_scatter_message,
+    inertia_sign_checks,
+)
 from inertiafit.stats import inverse_variance_mean
 
 __all__ = [
+    "DIAGNOSTIC_COLUMN",
     "EMG_TRACE_COLUMNS",
     "EMG_TRIAL_COLUMNS",
     "LIVING_ROW_FLAG",
@@ -69,6 +78,7 @@ __all__ = [
     "ProcessedStudy",
     "combine_gravity",
     "condition_gravity",
+    "diagnostics_table",
     "process_study",
     "usable_trials",
 ]
@@ -125,6 +135,11 @@ LIVING_ROW_FLAG = (
 #: ``status`` of a trial whose values were used, of one skipped (``on_trial_error``), and of
 #: one excluded for muscle activity (``[emg] on_activity = "exclude"``).
 STATUS_OK, STATUS_SKIPPED, STATUS_EXCLUDED = "ok", "skipped", "excluded"
+#: ``status`` in ``diagnostics.csv`` of a trial that caused a refusal, and of one the study
+#: stopped before.
+STATUS_REFUSED, STATUS_NOT_REACHED = "refused", "not reached"
+#: The column ``diagnostics.csv`` adds to those of ``trials.csv``: why a trial was refused.
+DIAGNOSTIC_COLUMN = "cause"
 #: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures.
 TRACE_COLUMNS = [
     "condition",
@@ -220,6 +235,40 @@ class ProcessedStudy:
         return both.sort_values("file", key=lambda f: f.map(order), kind="stable").reset_index(
             drop=True
         )
+
+    def diagnostics(self, refused: dict[str, str] | None = None) -> pd.DataFrame:
+        """The per-trial table of a refused study (:func:`diagnostics_table`)."""
+        return diagnostics_table(self.study, self.all_trials, refused or {})
+
+
+def diagnostics_table(
+    study: Study, gathered: pd.DataFrame, refused: dict[str, str]
+) -> pd.DataFrame:
+    """The per-trial table of a refused study: ``diagnostics.csv``.
+
+    Parameters
+    ----------
+    study : Study
+        The manifest: the table has a row per trial of it, in its order.
+    gathered : pandas.DataFrame
+        The rows gathered so far (columns of ``trials.csv``, indexed by nothing in particular);
+        a trial without a row gets one without values, ``status`` ``"not reached"``.
+    refused : dict of str to str
+        The trials that caused the refusal, by ``file``: their ``status`` becomes
+        ``"refused"`` and the reason goes into the column ``cause`` (empty for the others).
+    """
+    columns = [*TRIAL_COLUMNS, *(c for c in gathered.columns if c not in TRIAL_COLUMNS)]
+    have = {str(r["file"]): r for r in gathered.to_dict(orient="records")}
+    rows = []
+    for spec in study.trials:
+        name = _relative(spec.file, study.base_dir)
+        row = dict(have.get(name) or {**_row(study, spec), "status": STATUS_NOT_REACHED})
+        cause = refused.get(name, "")
+        if cause:
+            row["status"] = STATUS_REFUSED
+        row[DIAGNOSTIC_COLUMN] = cause
+        rows.append(row)
+    return pd.DataFrame(rows, columns=[*columns, DIAGNOSTIC_COLUMN])
 
 
 def _sensitivity_frame(rows: dict[str, tuple[float, ...]]) -> pd.DataFrame:
@@ -347,6 +396,7 @@ def process_study(
     cutoff: float = 20.0,
     order: int = 2,
     echo: Callable[[str], None] | None = None,
+    check_gravity: Callable[[pd.DataFrame, dict[str, GravityFit]], object] | None = None,
 ) -> ProcessedStudy:
     """Read and process every trial of a study.
 
@@ -358,6 +408,10 @@ def process_study(
         Zero-lag Butterworth low-pass applied to torque and velocity (Hz, design order).
     echo : callable, optional
         Receives one progress line per stage.
+    check_gravity : callable, optional
+        Called with the quasi-static rows (columns :data:`TRIAL_COLUMNS`) and each
+        condition's gravity model once they are fitted, before any fast trial is processed;
+        it may raise ``InputError`` (the pipeline's check of ``M_g`` against the priors).
 
     Returns
     -------
@@ -394,6 +448,27 @@ def process_study(
         study = load_study(study)
     say = echo or (lambda _msg: None)
     run = _Run(study)
+    try:
+        return _process(study, run, cutoff=cutoff, order=order, say=say, check=check_gravity)
+    except InputError as exc:  # the table gathered so far travels with the error
+        gathered = [run.rows.get(t.index) or run.skipped.get(t.index) for t in study.trials]
+        table = pd.DataFrame([r for r in gathered if r is not None], columns=TRIAL_COLUMNS)
+        refused = {**run.failed, **getattr(exc, "refused", {})}
+        raise StudyRefused(
+            str(exc), refused=refused, table=diagnostics_table(study, table, refused)
+        ) from exc
+
+
+def _process(
+    study: Study,
+    run: _Run,
+    *,
+    cutoff: float,
+    order: int,
+    say: Callable[[str], None],
+    check: Callable[[pd.DataFrame, dict[str, GravityFit]], object] | None,
+) -> ProcessedStudy:
+    """:func:`process_study`'s stages; ``run`` keeps what was gathered when one raises."""
     say(f"reading {len(study.trials)} trials")
     data = []
     for spec in study.trials:
@@ -401,7 +476,7 @@ def process_study(
         if ds is not None:
             data.append((spec, ds))
     data = _check_rates(data, run)
-    rows: dict[int, dict] = {}  # by manifest order
+    rows = run.rows  # by manifest order
     notes = run.notes
     emg = _EmgCheck.of(study, data, notes)
     say("fitting the gravity model of each condition (quasi-static trials)")
@@ -428,6 +503,13 @@ def process_study(
         fit = run.attempt(spec, functools.partial(fit_gravity, fitted))
         if fit is None:
             continue
+        rigid = spec.condition not in living_conditions  # a living sweep's M_g: the joint fit's
+        if rigid:
+            # its values go into a refused study's table (a skipped trial has its own row)
+            rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
+            if run.attempt(spec, functools.partial(check_quasi_static_sweep, fit)) is None:
+                del rows[spec.index]
+                continue
         if spec.condition in living_conditions:
             # the rigid fit of one sweep absorbs the passive curve: its drift and friction
             # flags describe that curve, and its M_g is the rigid model's (the paper's)
@@ -442,6 +524,7 @@ def process_study(
             records.append(_record(spec, fitted))
     run.check_left(qs_fits, "quasi-static")
     _check_rigid_postures(study, living_conditions)
+    _check_gravity_scatter(study, qs_fits, living_conditions)
     gravity = {
         cond: combine_gravity(fits, f"{study.path}: condition {cond}")
         for cond, fits in qs_fits.items()
@@ -472,11 +555,14 @@ def process_study(
             notes.extend(f"{study.path}: condition {cond}: {f}" for f in gravity[cond].flags)
         gravity = {c: gravity[c] for c in qs_fits}  # the manifest's order
     _check_phases(study, gravity, notes)
+    if check is not None:
+        check(pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS), gravity)
     say("estimating the inertia of each fast trial")
     traces: list[dict] = []
     count: dict[str, int] = {}
     used_fast: dict[str, list[InertiaEstimate]] = {}
     fast_estimates: list[tuple[TrialSpec, InertiaEstimate]] = []
+    estimated: list[tuple[TrialSpec, xr.Dataset, InertiaEstimate]] = []
     for spec, ds in data:
         if spec.kind != "fast":
             continue
@@ -495,10 +581,32 @@ def process_study(
                 order=order,
                 lag=spec.lag,
                 lag_bounds=study.calibration.lag_bounds,
+                refuse_negative=False,  # judged with the condition's other fast trials below
             ),
         )
-        if est is None:
+        if est is not None:
+            estimated.append((spec, ds, est))
+    for spec, _, est in estimated:  # in a refused study's table until they are judged
+        rows[spec.index] = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
+    verdicts = _sign_verdicts(study, estimated, gravity)
+    errors = [
+        (spec, verdicts[spec.index].error)
+        for spec, _, _ in estimated
+        if spec.index in verdicts and verdicts[spec.index].error
+    ]
+    if errors and not run.skip:  # every negative trial marked in the refused study's table
+        for spec, message in errors:
+            run.refuse(spec, message)
+        raise InputError(errors[0][1])
+    for spec, ds, first in estimated:
+        verdict = verdicts.get(spec.index)
+        est = first
+        if verdict is not None and verdict.error:
+            run.attempt(spec, functools.partial(_refuse, verdict.error))  # raises, or skips it
+            del rows[spec.index]
             continue
+        if verdict is not None and verdict.flag:
+            est = dataclasses.replace(est, flags=(verdict.flag, *est.flags))
         more = run.attempt(
             spec,
             functools.partial(
@@ -512,21 +620,27 @@ def process_study(
             ),
         )
         if more is None:
+            del rows[spec.index]
             continue
+        if spec.condition not in living_conditions:  # a living cruise holds the passive curve
+            scale = gravity_scale_flag(cruise_slope(ds, est, gravity[spec.condition]))
+            more = [*more, scale] if scale else more
         if emg is not None and "emg" in ds:
-            check = run.attempt(spec, functools.partial(emg.fast, spec, ds, est))
-            if check is None:
+            activity = run.attempt(spec, functools.partial(emg.fast, spec, ds, est))
+            if activity is None:
+                del rows[spec.index]
                 continue
-            emg.stop(spec, check)
-            if check.active and emg.action == "exclude":
+            emg.stop(spec, activity)
+            if activity.active and emg.action == "exclude":
                 est = dataclasses.replace(est, flags=(*est.flags, *more))
                 row = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
                 if spec.condition in living_conditions:
                     row.update(damping=est.damping, damping_se=est.damping_se)
-                run.exclude(spec, row, check.describe())
+                del rows[spec.index]
+                run.exclude(spec, row, activity.describe())
                 continue
-            if check.active:
-                more = [*more, check.describe()]
+            if activity.active:
+                more = [*more, activity.describe()]
         if more:
             est = dataclasses.replace(est, flags=(*est.flags, *more))
         notes.extend(f"{est.source}: {flag}" for flag in est.flags)
@@ -591,6 +705,43 @@ def process_study(
         damping=damping,
         emg_traces=emg.traces() if emg is not None else pd.DataFrame(columns=EMG_TRACE_COLUMNS),
     )
+
+
+def _check_gravity_scatter(
+    study: Study, fits: dict[str, list[GravityFit]], living: set[str]
+) -> None:
+    """Refuse a rigid condition whose quasi-static ``M_g`` disagree (naming every one)."""
+    for cond, group in fits.items():
+        message = None if cond in living else gravity_scatter_message(group, cond)
+        if message is not None:
+            files = {_relative(Path(f.source), study.base_dir): message for f in group}
+            raise StudyRefused(f"{study.path}: {message}", refused=files)
+
+
+def _refuse(message: str) -> None:
+    raise InputError(message)
+
+
+def _sign_verdicts(
+    study: Study,
+    estimated: list[tuple[TrialSpec, xr.Dataset, InertiaEstimate]],
+    gravity: dict[str, GravityFit],
+) -> dict[int, SignVerdict]:
+    """The negative inertias judged per condition (:func:`inertia_sign_checks`), by index."""
+    out: dict[int, SignVerdict] = {}
+    for cond in study.conditions:
+        group = [(spec, ds, est) for spec, ds, est in estimated if spec.condition == cond]
+        if not any(est.inertia < 0 for _, _, est in group):
+            continue
+        entries = [
+            (spec.torque_sign, est, cruise_slope(ds, est, gravity[cond]))
+            for spec, ds, est in group
+        ]
+        checked = inertia_sign_checks(entries, cond)
+        for (spec, _, _), verdict in zip(group, checked, strict=True):
+            if verdict is not None:
+                out[spec.index] = verdict
+    return out
 
 
 def _living_conditions(study: Study) -> set[str]:
@@ -667,6 +818,8 @@ class _Run:
         self.reasons: dict[int, str] = {}
         self.flags: dict[int, tuple[str, ...]] = {}  # reader flags, by manifest index
         self.contents: dict[str, TrialSpec] = {}  # first trial read of each SHA-256
+        self.rows: dict[int, dict] = {}  # rows of the trials processed, by manifest index
+        self.failed: dict[str, str] = {}  # the trial that stopped the study: file -> reason
         self.provenance: dict[int, dict[str, Any]] = {
             t.index: {
                 "file": _relative(t.file, study.base_dir),
@@ -686,9 +839,16 @@ class _Run:
             return step()
         except InputError as exc:
             if not self.skip:
+                self.refuse(spec, str(exc))
                 raise
             self.drop(spec, str(exc))
             return None
+
+    def refuse(self, spec: TrialSpec, message: str) -> None:
+        """Note the trial that stops the study (its row in the diagnostics is ``refused``)."""
+        self.failed[_relative(spec.file, self.study.base_dir)] = message.removeprefix(
+            f"{spec.file}: "
+        )
 
     def drop(self, spec: TrialSpec, message: str) -> None:
         """Skip a trial: its row (no values, the reason in ``flags``) and a warning line."""
@@ -790,6 +950,7 @@ def _check_rates(data: list, run: _Run) -> list:
                 f"{ref_spec.file.name}; resample so every trial of a study has one rate"
             )
             if not run.skip:
+                run.refuse(spec, message)
                 raise InputError(message)
             run.drop(spec, message)
             continue
@@ -960,9 +1121,13 @@ class _EmgCheck:
     def stop(self, spec: TrialSpec, check: ActivityCheck) -> None:
         """With ``on_activity = "stop"``, an active trial refuses the study in one line."""
         if check.active and self.action == "stop":
-            raise InputError(
-                f"{spec.file}: {check.describe()}; the muscle was not relaxed "
+            reason = (
+                f"{check.describe()}; the muscle was not relaxed "
                 '([emg] on_activity = "stop"; "exclude" leaves such trials out)'
+            )
+            raise StudyRefused(
+                f"{spec.file}: {reason}",
+                refused={_relative(spec.file, self.study.base_dir): reason},
             )
 
     def fast(self, spec: TrialSpec, ds: xr.Dataset, est: InertiaEstimate) -> ActivityCheck:

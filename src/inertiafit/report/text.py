@@ -2,10 +2,23 @@
 
 from __future__ import annotations
 
+import math
+
+import pandas as pd
+
 from inertiafit.formatting import interval, number
 from inertiafit.report.result import Result
 
-__all__ = ["STUDY_TEXT_COLUMNS", "fit_comparison_text", "study_comparison_text"]
+__all__ = [
+    "STUDY_TEXT_COLUMNS",
+    "diagnostics_text",
+    "fit_comparison_text",
+    "study_comparison_text",
+]
+
+#: Characters of a trial's note (its flags, or why it was refused) shown in
+#: :func:`diagnostics_text`; ``diagnostics.csv`` holds them whole.
+NOTE_CHARS = 110
 
 
 def fit_comparison_text(result: Result) -> str:
@@ -51,4 +64,46 @@ def study_comparison_text(result: Result) -> str:
     return (
         table.to_string(index=False, float_format=number)
         + "\n(ideal: textbook body; baseline: the paper's multi-start least squares)"
+    )
+
+
+def diagnostics_text(table: pd.DataFrame) -> str:
+    """A refused study's per-trial table for the terminal (``diagnostics.csv`` in short).
+
+    A row per trial: file, condition, kind, speed (deg/s), ``I`` and ``M_g`` with their
+    standard errors, status and a note — why it was refused, else its flags — cut at
+    :data:`NOTE_CHARS` characters.
+    """
+
+    def value(row: dict, key: str) -> str:
+        v, se = row.get(key), row.get(f"{key}_se")
+        if not isinstance(v, int | float) or math.isnan(v):
+            return ""
+        if isinstance(se, int | float) and math.isfinite(se):
+            return f"{v:.4g} +- {se:.2g}" if abs(se) < 100 else f"{v:.4g} +- {se:.0f}"
+        return f"{v:.4g}"
+
+    header = ["file", "condition", "kind", "speed", "I (kg m^2)", "M_g (N m)", "status", "note"]
+    lines = [header]
+    for row in table.to_dict(orient="records"):
+        note = row.get("cause") or row.get("flags")
+        note = note if isinstance(note, str) else ""
+        if len(note) > NOTE_CHARS:
+            note = note[: NOTE_CHARS - 3] + "..."
+        lines.append(
+            [
+                str(row["file"]),
+                str(row["condition"]),
+                str(row["kind"]),
+                number(row.get("speed")),
+                value(row, "inertia"),
+                value(row, "gravity_moment"),
+                str(row.get("status") or ""),
+                note,
+            ]
+        )
+    widths = [max(len(line[i]) for line in lines) for i in range(len(header) - 1)]
+    return "\n".join(
+        "  ".join([*(c.ljust(w) for c, w in zip(line, widths, strict=False)), line[-1]]).rstrip()
+        for line in lines
     )

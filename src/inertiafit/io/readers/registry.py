@@ -4,7 +4,9 @@ A reader is registered with the decorator :func:`register_reader`; :func:`read_t
 the common arguments (:mod:`inertiafit.io.readers.validation`) and dispatches on ``format``.
 A reader registered with ``binary=True`` reads binary files (``c3d``); every other reader reads
 text, and :func:`read_trial` stops a binary file (:func:`binary_kind`) before it reaches one,
-with a message that names the formats that read binary files.
+with a message that names the formats that read binary files. A file given without a
+``format`` is read by the binary format it is recognised as (:func:`recognised_format`: a C3D
+file by ``c3d``), else as ``csv``.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ __all__ = [
     "looks_like_c3d",
     "read_trial",
     "reader_options",
+    "recognised_format",
     "register_reader",
 ]
 
@@ -152,6 +155,27 @@ def binary_kind(path: Path) -> str | None:
     return None
 
 
+#: What :func:`binary_kind` says of a file -> the format that reads it without a ``format``.
+_RECOGNISED = {"a C3D file": "c3d"}
+
+
+def recognised_format(path: str | Path) -> str | None:
+    """The registered binary format a file is recognised as, for a file given no ``format``.
+
+    A C3D file (:func:`looks_like_c3d`) is ``"c3d"``; ``None`` for anything else (text, an
+    unknown binary, a missing file): those are read as ``csv``, whose messages name them.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return None
+    try:
+        kind = binary_kind(path)
+    except InputError:
+        return None
+    fmt = _RECOGNISED.get(kind or "")
+    return fmt if fmt in BINARY_FORMATS else None
+
+
 def carries_emg(format: str) -> bool:
     """Whether a registered format's reader reads EMG channels (has ``emg`` and ``emg_unit``).
 
@@ -198,7 +222,7 @@ def _get_reader(format: object, *, where: str) -> Reader:
 def read_trial(
     path: str | Path,
     *,
-    format: str = "csv",
+    format: str | None = None,
     columns: Mapping[str, str] | None = None,
     units: Mapping[str, str] | None = None,
     calibration: Mapping[str, Mapping[str, Any]] | None = None,
@@ -213,8 +237,10 @@ def read_trial(
     path : str or Path
         The trial file.
     format : str, optional
-        A registered format: ``"csv"`` (default), ``"biodex"``, ``"humac"``, ``"analog"``,
+        A registered format: ``"csv"``, ``"biodex"``, ``"humac"``, ``"analog"``,
         ``"c3d"``, ``"vicon"``, ``"isomed"``, or one added with :func:`register_reader`.
+        Default: the binary format the file is recognised as (:func:`recognised_format`: a
+        C3D file is ``"c3d"``), else ``"csv"``.
     columns : mapping of str to str, optional
         File column name per channel (``time``, ``angle``, ``velocity``, ``torque``); channels
         left out keep the format's default names.
@@ -249,6 +275,8 @@ def read_trial(
         file's contents; the one-line message names the file and the field.
     """
     path = Path(path)
+    if format is None:
+        format = recognised_format(path) or "csv"
     reader = _get_reader(format, where=str(path))
     allowed = reader_options(format)
     unknown = [k for k in options if k not in allowed]

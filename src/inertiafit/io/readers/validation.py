@@ -212,18 +212,26 @@ def reject_calibration(path: Path, calibration: object, format: str) -> None:
 def calibrated_unit(
     path: Path, channel: str, cal_unit: str | None, units: Mapping[str, str] | None
 ) -> str:
-    """The unit of a calibrated channel: its calibration's, or ``units``', or the default.
+    """The unit of a calibrated channel: its calibration's, or ``units``'.
+
+    Never assumed: a scale means nothing without the unit it converts to.
 
     Raises
     ------
     InputError
-        If ``units`` and the calibration both give the channel's unit and they differ.
+        If ``units`` and the calibration both give the channel's unit and they differ, or
+        neither gives one.
     """
     user_unit = (units or {}).get(channel)
     if cal_unit is not None and user_unit is not None and cal_unit != user_unit:
         raise InputError(
             f"{path}: units.{channel} = {user_unit!r} contradicts "
             f"calibration.{channel}.unit = {cal_unit!r}; give the unit once"
+        )
+    if cal_unit is None and user_unit is None:
+        raise InputError(
+            f"{path}: calibration.{channel}.unit: missing; give the unit of scale x volts + "
+            f"offset (e.g. {DEFAULT_UNITS[channel]!r}; or units.{channel})"
         )
     return cal_unit or user_unit or DEFAULT_UNITS[channel]
 
