@@ -279,6 +279,17 @@ def test_a_sinusoid_read_in_order_is_not_called_swapped():
     # test_swapped_columns_are_named_with_the_mapping_that_fixes_them)
 
 
+def test_a_short_piece_of_a_sinusoid_is_not_called_swapped():
+    """Found by the fuzz run too: 30 samples of a 0.4-deg swing give the declared pair 18
+    stretches to compare, too few to say it does not follow, and the swapped pair 21."""
+    t = np.arange(30) / 200.0
+    w = 4 * np.pi
+    angle = 0.0873 / w * np.sin(w * t)
+    velocity = 0.0873 * np.cos(w * t)
+    ds = make_trial(t, angle, velocity, angle.copy(), source="A.csv")
+    np.testing.assert_array_equal(ds.velocity.values, velocity)
+
+
 # ------------------------------------------------------------------------------ even time
 
 

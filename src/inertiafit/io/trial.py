@@ -517,12 +517,19 @@ def _swapped_columns(
     """The message for columns mapped to the wrong channels, or ``None``.
 
     The velocity channel does not follow the angle's derivative (:func:`_follows_cleanly`,
-    nor loosely, :func:`_follows`); if another channel follows the derivative of another, the
-    file's columns hold the channels in another order: a torque column holding the
+    nor loosely, :func:`_follows`, over enough stretches to tell: a short piece of a sinusoid
+    gives too few, and its angle and velocity follow each other either way); if another
+    channel follows the derivative of another, the file's columns hold the channels in another order: a torque column holding the
     angle reads as a torque that never turns negative (which ``torque_sign`` cannot fix), an
     angle column holding the torque as gravity at the wrong angles.
     """
     channels = ("angle", "velocity", "torque")
+    span = float(np.ptp(arrays["angle"]))
+    declared = compare_velocity(
+        time, arrays["angle"], arrays["velocity"], sweep=_SWAP_SWEEP * span
+    )
+    if declared is None or declared.stretches < _SWAP_STRETCHES:
+        return None  # the angle moves too little to say that the declared pair does not follow
     if _follows(time, arrays["angle"], arrays["velocity"]) is not None:
         return None  # the declared pair follows too (a sinusoid also follows its derivative)
     found = []
