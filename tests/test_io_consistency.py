@@ -280,7 +280,7 @@ def test_a_sinusoid_read_in_order_is_not_called_swapped():
 
 
 def test_a_short_piece_of_a_sinusoid_is_not_called_swapped():
-    """Found by the fuzz run too: 30 samples of a 0.4-deg swing give the declared pair 18
+    """Found by the fuzz run too: 30 samples of a 0.4-deg swing give the declared pair 19
     stretches to compare, too few to say it does not follow, and the swapped pair 21."""
     t = np.arange(30) / 200.0
     w = 4 * np.pi
