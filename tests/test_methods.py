@@ -10,9 +10,11 @@ from inertiafit.inference.fit import fit_body
 from inertiafit.inference.priors import anthropometric_prior, load_prior
 from inertiafit.physics import PARAMETERS
 from inertiafit.pipeline.fit import fit_result
+from inertiafit.report.figures import figure_records
 from inertiafit.report.html import PRIOR_SHARE_NOTE, study_report
 from inertiafit.report.methods import methods_markdown, prior_table, references_of
 from inertiafit.report.references import ALWAYS, REFERENCES, bibtex, cited
+from inertiafit.report.text import truth_comparison_text
 
 
 @pytest.fixture(scope="module")
@@ -98,3 +100,23 @@ def test_report_shows_priors_methods_and_folded_provenance(disk, tmp_path):
     assert "body(ies)" not in page
     assert "m·x" in page
     assert " m x " not in page
+
+
+def test_text_report_says_one_body_and_explains_the_prior_share(disk):
+    text = disk.posterior.report()
+    assert text.startswith("inertiafit posterior: 1 body; ")
+    assert "disk-3kg: the data identify m·x and I;" in text
+    assert "1 when the prior alone sets a quantity's width, 0 when the data do" in text
+
+
+def test_truth_is_shown_beside_the_posterior_apart_from_the_ideal(disk):
+    assert truth_comparison_text(disk) == ""  # measured data have no truth
+    row = disk.comparison.set_index("parameter").loc["mass"]
+    inside = dataclasses.replace(disk, truths={"disk-3kg": {"mass": row.posterior_median}})
+    outside = dataclasses.replace(disk, truths={"disk-3kg": {"mass": 2 * row.hdi_upper}})
+    line = truth_comparison_text(inside).splitlines()[1]
+    assert line.split()[:3] == ["disk-3kg", "mass", "[kg]"]
+    assert line.endswith("+0.0%  yes")
+    assert truth_comparison_text(outside).splitlines()[1].endswith("NO")
+    records = {r.stem: r for r in figure_records(inside)}
+    assert records["corner"].caption.endswith("lines: the simulation's truth (solid)")

@@ -28,6 +28,7 @@ from inertiafit.baseline import curve_mass_intervals, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.physics import PARAMETERS, REPORTED
 from inertiafit.plotting import raster
+from inertiafit.plotting.corner import IDEAL_COLOUR
 from inertiafit.posterior import Posterior
 from inertiafit.report import plots
 
@@ -329,6 +330,26 @@ def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
 
     fig = plots.plot_joint_corner(posterior, truths={"attachment": Ideal()})
     assert truth_lines(np.asarray(fig.axes).reshape(6, 6)[-1, 0])
+
+
+def test_corner_draws_the_ideal_body_apart_from_the_truth(posterior):
+    def lines(ax, colour):  # positions of the vertical lines (corner adds a truth's marker)
+        return sorted(
+            {
+                float(ln.get_xdata()[0])
+                for ln in ax.get_lines()
+                if ln.get_color() == colour and np.isfinite(ln.get_xdata()).all()
+            }
+        )
+
+    fig = posterior.corner("weight", truths={"mass": 2.85}, ideal={"mass": 2.92, "inertia": 0.6})
+    axes = np.asarray(fig.axes).reshape(5, 5)
+    assert lines(axes[-1, 0], IDEAL_COLOUR) == pytest.approx([2.92])  # dashed: the ideal
+    assert lines(axes[-1, 0], plots.PALETTE[1]) == pytest.approx([2.85])  # solid: the truth
+    ideal = [ln for ln in axes[3, 3].get_lines() if ln.get_color() == IDEAL_COLOUR]
+    assert [ln.get_linestyle() for ln in ideal] == ["--"]
+    joint = plots.plot_joint_corner(posterior, ideals={"weight": {"mass": 2.92}})
+    assert lines(np.asarray(joint.axes).reshape(6, 6)[-1, 3], IDEAL_COLOUR) == [2.92]
 
 
 def test_identification_curve_panels_box_and_physics(posterior, baseline):

@@ -25,7 +25,7 @@ from inertiafit.plotting.style import (
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["corner_figure"]
+__all__ = ["IDEAL_COLOUR", "corner_figure"]
 
 
 def corner_figure(
@@ -37,6 +37,7 @@ def corner_figure(
     boxes: Sequence[tuple[float, float] | None],
     priors: Sequence[np.ndarray | None],
     truths: Sequence[float | None] | None = None,
+    ideals: Sequence[float | None] | None = None,
     quantiles: Sequence[float] = (0.16, 0.5, 0.84),
     note: str = "",
     fig: Figure | None = None,
@@ -62,7 +63,11 @@ def corner_figure(
         Prior draws per dimension, histogrammed in grey on the diagonal, scaled to the
         posterior's number of draws; or None.
     truths : sequence of float or None, optional
-        Known values drawn as lines; None entries are skipped.
+        Known values drawn as lines (solid, :data:`PALETTE` ``[1]``): a simulation's truth;
+        None entries are skipped.
+    ideals : sequence of float or None, optional
+        Reference values drawn as dashed lines in :data:`IDEAL_COLOUR` (an ideal, textbook
+        body), apart from ``truths``; None entries are skipped.
     quantiles : sequence of float
         Quantiles marked on the diagonal.
     note : str
@@ -143,6 +148,27 @@ def corner_figure(
                         if lo <= v <= hi:
                             line = axes[i, j].axvline if vertical else axes[i, j].axhline
                             line(v, **edge)
+        if ideals is not None:
+            _ideal_lines(axes, ideals, rng)
         if note:
             fig.text(0.98, 0.98, note, ha="right", va="top", fontsize=8)
     return fig
+
+
+#: Colour of the ideal body's dashed lines (the truth's are ``PALETTE[1]``).
+IDEAL_COLOUR = PALETTE[2]
+
+
+def _ideal_lines(axes: np.ndarray, ideals: Sequence[float | None], rng: Sequence) -> None:
+    """Dashed lines at the ideal values, on every panel of their dimension."""
+    style = {"color": IDEAL_COLOUR, "ls": (0, (4, 2)), "lw": 0.9}
+    k = axes.shape[0]
+    for i in range(k):
+        for j in range(i + 1):
+            for dim, vertical in ((j, True), (i, False)):
+                v = ideals[dim]
+                if v is None or (i == j and not vertical):
+                    continue
+                lo, hi = sorted(rng[dim])
+                if lo <= v <= hi:
+                    (axes[i, j].axvline if vertical else axes[i, j].axhline)(v, **style)

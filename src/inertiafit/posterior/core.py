@@ -313,6 +313,7 @@ class Posterior:
         *,
         parameters: tuple[str, ...] = REPORTED,
         truths: dict[str, float] | None = None,
+        ideal: dict[str, float] | None = None,
         quantiles: tuple[float, ...] = (0.16, 0.5, 0.84),
         prior_box: bool = True,
         fig=None,
@@ -329,7 +330,9 @@ class Posterior:
             Quantities to show (default: the three parameters and ``inertia``,
             ``gravity_moment``).
         truths : dict of str to float, optional
-            Known values (SI units) drawn as lines, e.g. an ideal body's.
+            Known values (SI units) drawn as solid lines, e.g. a simulation's truth.
+        ideal : dict of str to float, optional
+            An ideal (textbook) body's values, drawn as dashed lines in another colour.
         quantiles : tuple of float
             Quantiles marked on the 1-D histograms.
         prior_box : bool
@@ -374,6 +377,7 @@ class Posterior:
             boxes=boxes,
             priors=[self.draws(body, p, "prior").ravel() for p in parameters],
             truths=[truths.get(p) for p in parameters] if truths else None,
+            ideals=[ideal.get(p) for p in parameters] if ideal else None,
             quantiles=quantiles,
             note=body,
             fig=fig,

@@ -62,6 +62,9 @@ class Result:
     living : dict of str to pandas.DataFrame
         A living body's joint (:func:`~inertiafit.processing.living.living_tables`):
         ``passive_parameters`` and ``passive_curve``; empty for a rigid study.
+    truths : dict of str to dict
+        A simulated study's true values per body and quantity (SI units; the demo's
+        ``truth.toml``), drawn beside the ideal bodies; empty for measured data.
     """
 
     name: str
@@ -79,6 +82,7 @@ class Result:
     warnings: tuple[str, ...]
     manifest: str
     living: dict[str, pd.DataFrame] = field(default_factory=dict)
+    truths: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def summary(self, hdi_prob: float | None = None) -> pd.DataFrame:
         """The posterior's summary; a living body's joint parameters as rows of that body.
@@ -164,6 +168,7 @@ def make_result(
     warnings: Sequence[str] = (),
     manifest: str = "",
     living: Mapping[str, pd.DataFrame] | None = None,
+    truths: Mapping[str, Mapping[str, float]] | None = None,
 ) -> Result:
     """Assemble a :class:`Result` and its comparison table (nothing else is computed)."""
     ideals_ = {k: dict(v) for k, v in (ideals or {}).items()}
@@ -193,6 +198,7 @@ def make_result(
         warnings=tuple(warnings),
         manifest=manifest,
         living=dict(living or {}),
+        truths={k: dict(v) for k, v in (truths or {}).items()},
     )
 
 

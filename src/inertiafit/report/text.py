@@ -5,7 +5,12 @@ from __future__ import annotations
 from inertiafit.formatting import interval, number
 from inertiafit.report.result import Result
 
-__all__ = ["STUDY_TEXT_COLUMNS", "fit_comparison_text", "study_comparison_text"]
+__all__ = [
+    "STUDY_TEXT_COLUMNS",
+    "fit_comparison_text",
+    "study_comparison_text",
+    "truth_comparison_text",
+]
 
 
 def fit_comparison_text(result: Result) -> str:
@@ -52,3 +57,36 @@ def study_comparison_text(result: Result) -> str:
         table.to_string(index=False, float_format=number)
         + "\n(ideal: textbook body; baseline: the paper's multi-start least squares)"
     )
+
+
+def truth_comparison_text(result: Result) -> str:
+    """A simulated study's bodies: the truth beside the posterior, and whether the HDI holds it.
+
+    Empty when the result has no :attr:`~inertiafit.report.result.Result.truths`. The ideal
+    (textbook) bodies are another question (:func:`study_comparison_text`): a simulation's truth
+    may differ from them on purpose.
+    """
+    if not result.truths:
+        return ""
+    table = result.comparison.set_index(["body", "parameter"])
+    pct = f"{100 * result.hdi_prob:g}% HDI"
+    lines = [
+        (
+            f"{'body':<12}{'parameter':<28}{'truth':>10}{'posterior median':>18}  {pct:<24}"
+            f"{'error':>8}  covered"
+        )
+    ]
+    for body, values in result.truths.items():
+        for parameter, true in values.items():
+            if (body, parameter) not in table.index:
+                continue
+            r = table.loc[(body, parameter)]
+            name = f"{parameter} [{r.unit}]"
+            error = 100 * (r.posterior_median - true) / true
+            inside = r.hdi_lower <= true <= r.hdi_upper
+            lines.append(
+                f"{body:<12}{name:<28}{true:>10.4g}{r.posterior_median:>18.4g}  "
+                f"{interval(r.hdi_lower, r.hdi_upper):<24}{error:>+7.1f}%  "
+                + ("yes" if inside else "NO")
+            )
+    return "\n".join(lines) + "\n(truth: the values the trials were simulated with)"

@@ -25,6 +25,7 @@ def plot_joint_corner(
     *,
     parameters: Sequence[str] = PARAMETERS,
     truths: Mapping[str, Any] | None = None,
+    ideals: Mapping[str, Any] | None = None,
     bodies: Sequence[str] | None = None,
     quantiles: Sequence[float] = (0.16, 0.5, 0.84),
     fig: Figure | None = None,
@@ -46,6 +47,8 @@ def plot_joint_corner(
     truths : mapping of str to mapping of str to float, optional
         Known values per body and parameter (SI units), e.g. ``{"weight": {"mass": 2.92}}``;
         a value may also be an object with ``as_dict()``, such as an ideal body.
+    ideals : mapping of str to mapping of str to float, optional
+        Ideal (textbook) values per body, drawn dashed in another colour than ``truths``.
     bodies : sequence of str, optional
         Bodies to include, in order; default all.
     quantiles : sequence of float
@@ -78,11 +81,11 @@ def plot_joint_corner(
     ranges: list[tuple[float, float]] = []
     boxes: list[tuple[float, float] | None] = []
     marks: list[float | None] = []
+    ideal_marks: list[float | None] = []
     for b in names:
         box = posterior.prior_box(b)
-        known = (truths or {}).get(b) or {}
-        if not isinstance(known, Mapping):  # an ideal body (inertiafit.shapes) and the like
-            known = known.as_dict()
+        known = _values((truths or {}).get(b))
+        ideal = _values((ideals or {}).get(b))
         for p in params:
             x = posterior.draws(b, p).ravel()
             columns.append(x)
@@ -98,6 +101,7 @@ def plot_joint_corner(
                 boxes.append(None)
             priors.append(posterior.draws(b, p, "prior").ravel())
             marks.append(known.get(p))
+            ideal_marks.append(ideal.get(p))
     return corner_figure(
         columns,
         labels=labels,
@@ -106,9 +110,17 @@ def plot_joint_corner(
         boxes=boxes,
         priors=priors,
         truths=marks,
+        ideals=ideal_marks if ideals else None,
         quantiles=quantiles,
         note="axes of $m$, $x$, $\\rho$ span the prior boxes; grey: prior",
         fig=fig,
         width=width,
         **corner_kwargs,
     )
+
+
+def _values(known: Any) -> Mapping[str, float]:
+    """Values by parameter; an ideal body (:mod:`inertiafit.shapes`) by its ``as_dict()``."""
+    if not known:
+        return {}
+    return known if isinstance(known, Mapping) else known.as_dict()
