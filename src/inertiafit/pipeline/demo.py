@@ -40,7 +40,7 @@ def simulated_truths(study_dir: Path) -> dict[str, dict[str, float]]:
     """The true values of every body of a simulated study (its ``truth.toml``), SI units."""
     truth = tomllib.loads((study_dir / "truth.toml").read_text(encoding="utf-8"))
     return {
-        body: {k: float(v) for k, v in values.items() if k in REPORTED}
+        body: {k: float(values[k]) for k in REPORTED if k in values}
         for body, values in truth["bodies"].items()
     }
 
@@ -164,8 +164,9 @@ def run_demo(
         run_living_demo(folder / "living", seed=seed, hdi_prob=hdi_prob, echo=echo, say=say)
         echo("")
     echo(
-        f"wrote {out}/: report.html, summary, comparison, speed_effect and trials tables "
-        "(.csv/.md/.tex), posterior.nc, figures; study/ (simulated trials); paper-numbers/; "
+        f"wrote {out}/: report.html, methods.md, references.bib, summary, comparison, "
+        "speed_effect and trials tables (.csv/.md/.tex), posterior.nc, figures; study/ "
+        "(simulated trials, truth.toml); paper-numbers/ (report.html each); "
         "information/ (information.csv, forearm-study/); living/ (a living forearm's run, "
         "living.csv)"
     )
