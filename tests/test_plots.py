@@ -10,6 +10,7 @@ intended change, look at the new images, then::
 
 from __future__ import annotations
 
+import itertools
 import os
 import shutil
 from pathlib import Path
@@ -31,6 +32,7 @@ from inertiafit.plotting import raster
 from inertiafit.plotting.corner import IDEAL_COLOUR
 from inertiafit.posterior import Posterior
 from inertiafit.report import plots
+from inertiafit.report.plots.identification import curve_verdict
 
 BASELINES = Path(__file__).parent / "baseline_images"
 UPDATE = os.environ.get("INERTIAFIT_UPDATE_BASELINES") == "1"
@@ -303,14 +305,18 @@ def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
     truths = {"weight": {"mass": 2.92}}
     fig = plots.plot_joint_corner(posterior, truths=truths)
     axes = np.asarray(fig.axes).reshape(6, 6)
+    # the body on a line of its own: "attachment: m [kg]attachment: x [m]" ran together
     assert [ax.get_xlabel() for ax in axes[-1]] == [
-        "attachment: $m$ [kg]",
-        "attachment: $x$ [m]",
-        r"attachment: $\rho$ [m]",
-        "weight: $m$ [kg]",
-        "weight: $x$ [m]",
-        r"weight: $\rho$ [m]",
+        "attachment\n$m$ [kg]",
+        "attachment\n$x$ [m]",
+        "attachment\n$\\rho$ [m]",
+        "weight\n$m$ [kg]",
+        "weight\n$x$ [m]",
+        "weight\n$\\rho$ [m]",
     ]
+    fig.draw_without_rendering()
+    boxes = [ax.xaxis.label.get_window_extent() for ax in axes[-1]]
+    assert all(a.x1 < b.x0 for a, b in itertools.pairwise(boxes))  # no two labels touch
     assert axes[-1, 0].get_xlim() == pytest.approx((1.455, 4.365))
     assert axes[-1, 4].get_xlim() == pytest.approx((0.225, 0.675))
 
@@ -467,3 +473,28 @@ def test_draws_into_a_given_figure(posterior):
     fig = Figure(figsize=(4, 3))
     assert plots.plot_trace(posterior, "weight", fig=fig) is fig
     assert isinstance(fig.axes[0].get_lines()[0], Line2D)
+
+
+def test_identification_curve_title_says_what_the_table_says(posterior):
+    table = posterior.identification().set_index(["body", "parameter"])["identified_by"]
+    for body in posterior.bodies:
+        title = plots.plot_identification_curve(posterior, body)._suptitle.get_text()
+        said = curve_verdict(posterior, body)
+        assert title.endswith(f"on the curve, {said}")
+        for p, symbol in (("mass", "$m$"), ("com_distance", "$x$")):
+            phrase = {
+                "data": "the data pin",
+                "data + prior": "data and prior box together set",
+                "prior": "the prior box picks",
+            }[table[(body, p)]]
+            clause = next(c for c in said.split("; ") if symbol in c)
+            assert clause.startswith(phrase), (body, p, said)
+
+
+def test_fast_trial_legend_sits_beside_the_curves():
+    fig = plots.plot_fast_trials(synthetic_traces(), title="A")
+    fig.draw_without_rendering()  # the layout engine places the panels and the legend
+    (legend,) = fig.legends
+    box = legend.get_window_extent()
+    for ax in fig.axes:
+        assert box.x0 >= ax.get_window_extent().x1  # right of every panel: covers no curve

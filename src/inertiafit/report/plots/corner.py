@@ -89,8 +89,8 @@ def plot_joint_corner(
         for p in params:
             x = posterior.draws(b, p).ravel()
             columns.append(x)
-            # a long body name goes on its own line, or neighbouring labels overlap
-            labels.append(axis_label(p, b if len(b) <= 12 else f"{b}\n"))
+            # the body's name on a line of its own, or neighbouring labels run together
+            labels.append(axis_label(p, f"{b}\n"))
             titles.append(SYMBOLS[p])
             if p in box:
                 ranges.append(box[p])
