@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import xarray as xr
+from matplotlib.colors import to_rgb
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.testing.compare import compare_images
@@ -248,7 +249,7 @@ def test_defaults_are_journal_column_widths(posterior):
 
 
 def test_corner_axes_span_the_prior_box_with_truth_lines(posterior):
-    fig = posterior.corner("weight", truths={"mass": 2.92, "inertia": 0.6})
+    fig = posterior.corner("weight", truths={"mass": 2.92, "inertia": 0.6}, prior_box=True)
     axes = np.asarray(fig.axes).reshape(5, 5)
     lower = (1.46, 0.225, 0.0175)
     upper = (4.38, 0.675, 0.0525)
@@ -303,7 +304,7 @@ def test_dropping_the_hidden_draws_leaves_the_corner_picture_unchanged(
 
 def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
     truths = {"weight": {"mass": 2.92}}
-    fig = plots.plot_joint_corner(posterior, truths=truths)
+    fig = plots.plot_joint_corner(posterior, truths=truths, prior_box=True)
     axes = np.asarray(fig.axes).reshape(6, 6)
     # the body on a line of its own: "attachment: m [kg]attachment: x [m]" ran together
     assert [ax.get_xlabel() for ax in axes[-1]] == [
@@ -498,3 +499,37 @@ def test_fast_trial_legend_sits_beside_the_curves():
     box = legend.get_window_extent()
     for ax in fig.axes:
         assert box.x0 >= ax.get_window_extent().x1  # right of every panel: covers no curve
+
+
+def test_corner_zooms_to_the_posterior_and_shades_the_prior_box(posterior):
+    # the default: a pinned parameter fills its panel instead of one bin of the whole box
+    fig = posterior.corner("weight")
+    axes = np.asarray(fig.axes).reshape(5, 5)
+    box = posterior.prior_box("weight")
+    for i, p in enumerate(PARAMETERS):
+        lo, hi = axes[-1, i].get_xlim() if i < 4 else axes[i, i].get_xlim()
+        draws = posterior.draws("weight", p).ravel()
+        q_lo, q_hi = np.quantile(draws, [0.001, 0.999])
+        width = box[p][1] - box[p][0]
+        # every draw but the extreme tails is in view, as far as the box allows
+        assert lo <= max(q_lo, box[p][0] - 0.05 * width) + 1e-12
+        assert hi >= min(q_hi, box[p][1] + 0.05 * width) - 1e-12
+        assert lo >= box[p][0] - 0.05 * width - 1e-12
+        assert hi <= box[p][1] + 0.05 * width + 1e-12
+        shaded = [
+            patch
+            for patch in axes[i, i].patches
+            if patch.get_facecolor()[:3] == pytest.approx(to_rgb(plots.PRIOR_COLOUR))
+        ]
+        assert len(shaded) == 1, p  # the box as a band on its marginal
+    m_lo, m_hi = axes[-1, 0].get_xlim()
+    assert m_hi - m_lo < 0.25 * (box["mass"][1] - box["mass"][0])  # the weight's m is pinned
+    spanned = posterior.corner("weight", prior_box=True)
+    assert not [
+        patch
+        for patch in np.asarray(spanned.axes).reshape(5, 5)[0, 0].patches
+        if patch.get_facecolor()[:3] == pytest.approx(to_rgb(plots.PRIOR_COLOUR))
+    ]
+    joint = plots.plot_joint_corner(posterior)
+    j_lo, j_hi = np.asarray(joint.axes).reshape(6, 6)[-1, 3].get_xlim()
+    assert (j_lo, j_hi) == pytest.approx((m_lo, m_hi))

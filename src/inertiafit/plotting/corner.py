@@ -25,7 +25,7 @@ from inertiafit.plotting.style import (
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["IDEAL_COLOUR", "corner_figure"]
+__all__ = ["IDEAL_COLOUR", "corner_figure", "posterior_range"]
 
 
 def corner_figure(
@@ -40,6 +40,7 @@ def corner_figure(
     ideals: Sequence[float | None] | None = None,
     quantiles: Sequence[float] = (0.16, 0.5, 0.84),
     note: str = "",
+    band: bool = False,
     fig: Figure | None = None,
     width="double",
     **corner_kwargs,
@@ -72,6 +73,9 @@ def corner_figure(
         Quantiles marked on the diagonal.
     note : str
         Text in the top right corner.
+    band : bool
+        Shade each prior box on its diagonal panel (for axes zoomed to the posterior,
+        :func:`posterior_range`, where the box's frame no longer shows it).
     fig : matplotlib.figure.Figure, optional
         Figure to draw into; without a layout engine (corner.py sets the margins).
     width : {"single", "double"} or float
@@ -131,6 +135,9 @@ def corner_figure(
         rng = kwargs["range"]
         for i in range(k):
             ax = axes[i, i]
+            box = boxes[i]
+            if band and box is not None:
+                ax.axvspan(box[0], box[1], color=PRIOR_COLOUR, alpha=0.12, lw=0, zorder=0)
             prior = priors[i]
             if prior is not None:
                 edges = np.linspace(float(min(rng[i])), float(max(rng[i])), bins + 1)
@@ -172,3 +179,20 @@ def _ideal_lines(axes: np.ndarray, ideals: Sequence[float | None], rng: Sequence
                 lo, hi = sorted(rng[dim])
                 if lo <= v <= hi:
                     (axes[i, j].axvline if vertical else axes[i, j].axhline)(v, **style)
+
+
+def posterior_range(
+    draws: np.ndarray, box: tuple[float, float] | None = None
+) -> tuple[float, float]:
+    """Axis limits that show the draws: their 0.1-99.9 % range padded by 10 % each side.
+
+    With a prior ``box``, the limits reach at most 5 % of its width beyond it, so a posterior
+    that fills its box shows the box's edges, and a pinned one is not a one-bin spike.
+    """
+    lo, hi = (float(v) for v in np.quantile(draws, [0.001, 0.999]))
+    pad = 0.1 * (hi - lo) if hi > lo else 0.05 * max(abs(lo), 1e-12)
+    lo, hi = lo - pad, hi + pad
+    if box is not None:
+        margin = 0.05 * (box[1] - box[0])
+        lo, hi = max(lo, box[0] - margin), min(hi, box[1] + margin)
+    return lo, hi

@@ -85,7 +85,8 @@ def figure_records(result: Result) -> list[FigureRecord]:
                     ideal=result.ideals.get(body) or None,
                 ),
                 "Corner plots",
-                f"{body}: axes of m, x and rho span the prior box" + _lines(result, body),
+                f"{body}: axes zoomed to the posterior; shaded: the prior box; grey: the prior"
+                + _lines(result, body),
             )
         )
     if len(post.bodies) > 1:
