@@ -275,7 +275,9 @@ def write_report(
         parts.append("<h2>Inputs and provenance</h2>")
         folded: list = []
         if notes:
-            folded.append(pd.DataFrame({"": list(notes), " ": [str(v) for v in notes.values()]}))
+            folded.append(
+                pd.DataFrame({"item": list(notes), "value": [str(v) for v in notes.values()]})
+            )
         folded += list(appendix or [])
         line = provenance or "Inputs, software versions and seed"
         parts.append(_item_html(Details(line, folded), "Inputs and provenance"))
