@@ -136,9 +136,9 @@ table.to_csv(OUT / "tables-2-3.csv", index=False)
 # %%
 # The corner plots
 # ----------------
-# The axes of m, x and ρ span the prior box; the lines mark the paper's estimate. The
-# attachment's posterior is a curved band across the box; the disk's mass and CoM distance are
-# narrow while its ρ fills its axis.
+# The axes are zoomed to the posterior, the prior box shaded on the diagonal; the lines mark
+# the paper's estimate. The attachment's posterior is a curved band across its box; the disk's
+# mass and CoM distance are narrow (and fill their zoomed axes) while its ρ fills its box.
 
 
 def paper_point(row):

@@ -15,20 +15,23 @@ DISK = DISK_FIT
 @pytest.fixture(scope="module")
 def disk_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("fit") / "out"
-    assert main([*DISK, "--out", str(out), "--seed", "4"]) == 0
+    assert main([*DISK, "--out", str(out), "--seed", "4", "--formats", "png,pdf"]) == 0
     return out
 
 
 def test_fit_writes_every_output(disk_run):
-    names = {p.name for p in disk_run.iterdir()}
-    assert {
-        "summary.csv",
+    # the set `inertiafit run` writes, less the trial tables (trials, speed_effect, traces)
+    figures = ["corner", "identification-disk-3kg", "trace-disk-3kg", "rank-disk-3kg"]
+    tables = ["summary", "identification", "comparison"]
+    assert {p.name for p in disk_run.iterdir()} == {
+        ".inertiafit-output",
         "posterior.nc",
-        "corner.pdf",
-        "corner.png",
-        "identification.csv",
-        "comparison.csv",
-    } <= names
+        "report.html",
+        "methods.md",
+        "references.bib",
+        *(f"{t}.{ext}" for t in tables for ext in ("csv", "md", "tex")),
+        *(f"{f}.{ext}" for f in figures for ext in ("png", "pdf")),
+    }
     s = pd.read_csv(disk_run / "summary.csv")
     assert list(s.columns) == SUMMARY_COLUMNS
     assert set(s.body) == {"disk-3kg"}

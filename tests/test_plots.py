@@ -10,6 +10,7 @@ intended change, look at the new images, then::
 
 from __future__ import annotations
 
+import itertools
 import os
 import shutil
 from pathlib import Path
@@ -19,6 +20,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import xarray as xr
+from matplotlib.colors import to_rgb
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.testing.compare import compare_images
@@ -28,8 +30,10 @@ from inertiafit.baseline import curve_mass_intervals, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.physics import PARAMETERS, REPORTED
 from inertiafit.plotting import raster
+from inertiafit.plotting.corner import IDEAL_COLOUR
 from inertiafit.posterior import Posterior
 from inertiafit.report import plots
+from inertiafit.report.plots.identification import curve_verdict
 
 BASELINES = Path(__file__).parent / "baseline_images"
 UPDATE = os.environ.get("INERTIAFIT_UPDATE_BASELINES") == "1"
@@ -245,7 +249,7 @@ def test_defaults_are_journal_column_widths(posterior):
 
 
 def test_corner_axes_span_the_prior_box_with_truth_lines(posterior):
-    fig = posterior.corner("weight", truths={"mass": 2.92, "inertia": 0.6})
+    fig = posterior.corner("weight", truths={"mass": 2.92, "inertia": 0.6}, prior_box=True)
     axes = np.asarray(fig.axes).reshape(5, 5)
     lower = (1.46, 0.225, 0.0175)
     upper = (4.38, 0.675, 0.0525)
@@ -300,16 +304,20 @@ def test_dropping_the_hidden_draws_leaves_the_corner_picture_unchanged(
 
 def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
     truths = {"weight": {"mass": 2.92}}
-    fig = plots.plot_joint_corner(posterior, truths=truths)
+    fig = plots.plot_joint_corner(posterior, truths=truths, prior_box=True)
     axes = np.asarray(fig.axes).reshape(6, 6)
+    # the body on a line of its own: "attachment: m [kg]attachment: x [m]" ran together
     assert [ax.get_xlabel() for ax in axes[-1]] == [
-        "attachment: $m$ [kg]",
-        "attachment: $x$ [m]",
-        r"attachment: $\rho$ [m]",
-        "weight: $m$ [kg]",
-        "weight: $x$ [m]",
-        r"weight: $\rho$ [m]",
+        "attachment\n$m$ [kg]",
+        "attachment\n$x$ [m]",
+        "attachment\n$\\rho$ [m]",
+        "weight\n$m$ [kg]",
+        "weight\n$x$ [m]",
+        "weight\n$\\rho$ [m]",
     ]
+    fig.draw_without_rendering()
+    boxes = [ax.xaxis.label.get_window_extent() for ax in axes[-1]]
+    assert all(a.x1 < b.x0 for a, b in itertools.pairwise(boxes))  # no two labels touch
     assert axes[-1, 0].get_xlim() == pytest.approx((1.455, 4.365))
     assert axes[-1, 4].get_xlim() == pytest.approx((0.225, 0.675))
 
@@ -329,6 +337,26 @@ def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
 
     fig = plots.plot_joint_corner(posterior, truths={"attachment": Ideal()})
     assert truth_lines(np.asarray(fig.axes).reshape(6, 6)[-1, 0])
+
+
+def test_corner_draws_the_ideal_body_apart_from_the_truth(posterior):
+    def lines(ax, colour):  # positions of the vertical lines (corner adds a truth's marker)
+        return sorted(
+            {
+                float(ln.get_xdata()[0])
+                for ln in ax.get_lines()
+                if ln.get_color() == colour and np.isfinite(ln.get_xdata()).all()
+            }
+        )
+
+    fig = posterior.corner("weight", truths={"mass": 2.85}, ideal={"mass": 2.92, "inertia": 0.6})
+    axes = np.asarray(fig.axes).reshape(5, 5)
+    assert lines(axes[-1, 0], IDEAL_COLOUR) == pytest.approx([2.92])  # dashed: the ideal
+    assert lines(axes[-1, 0], plots.PALETTE[1]) == pytest.approx([2.85])  # solid: the truth
+    ideal = [ln for ln in axes[3, 3].get_lines() if ln.get_color() == IDEAL_COLOUR]
+    assert [ln.get_linestyle() for ln in ideal] == ["--"]
+    joint = plots.plot_joint_corner(posterior, ideals={"weight": {"mass": 2.92}})
+    assert lines(np.asarray(joint.axes).reshape(6, 6)[-1, 3], IDEAL_COLOUR) == [2.92]
 
 
 def test_identification_curve_panels_box_and_physics(posterior, baseline):
@@ -446,3 +474,62 @@ def test_draws_into_a_given_figure(posterior):
     fig = Figure(figsize=(4, 3))
     assert plots.plot_trace(posterior, "weight", fig=fig) is fig
     assert isinstance(fig.axes[0].get_lines()[0], Line2D)
+
+
+def test_identification_curve_title_says_what_the_table_says(posterior):
+    table = posterior.identification().set_index(["body", "parameter"])["identified_by"]
+    for body in posterior.bodies:
+        title = plots.plot_identification_curve(posterior, body)._suptitle.get_text()
+        said = curve_verdict(posterior, body)
+        assert title.endswith(f"on the curve, {said}")
+        for p, symbol in (("mass", "$m$"), ("com_distance", "$x$")):
+            phrase = {
+                "data": "the data pin",
+                "data + prior": "data and prior box together set",
+                "prior": "the prior box picks",
+            }[table[(body, p)]]
+            clause = next(c for c in said.split("; ") if symbol in c)
+            assert clause.startswith(phrase), (body, p, said)
+
+
+def test_fast_trial_legend_sits_beside_the_curves():
+    fig = plots.plot_fast_trials(synthetic_traces(), title="A")
+    fig.draw_without_rendering()  # the layout engine places the panels and the legend
+    (legend,) = fig.legends
+    box = legend.get_window_extent()
+    for ax in fig.axes:
+        assert box.x0 >= ax.get_window_extent().x1  # right of every panel: covers no curve
+
+
+def test_corner_zooms_to_the_posterior_and_shades_the_prior_box(posterior):
+    # the default: a pinned parameter fills its panel instead of one bin of the whole box
+    fig = posterior.corner("weight")
+    axes = np.asarray(fig.axes).reshape(5, 5)
+    box = posterior.prior_box("weight")
+    for i, p in enumerate(PARAMETERS):
+        lo, hi = axes[-1, i].get_xlim() if i < 4 else axes[i, i].get_xlim()
+        draws = posterior.draws("weight", p).ravel()
+        q_lo, q_hi = np.quantile(draws, [0.001, 0.999])
+        width = box[p][1] - box[p][0]
+        # every draw but the extreme tails is in view, as far as the box allows
+        assert lo <= max(q_lo, box[p][0] - 0.05 * width) + 1e-12
+        assert hi >= min(q_hi, box[p][1] + 0.05 * width) - 1e-12
+        assert lo >= box[p][0] - 0.05 * width - 1e-12
+        assert hi <= box[p][1] + 0.05 * width + 1e-12
+        shaded = [
+            patch
+            for patch in axes[i, i].patches
+            if patch.get_facecolor()[:3] == pytest.approx(to_rgb(plots.PRIOR_COLOUR))
+        ]
+        assert len(shaded) == 1, p  # the box as a band on its marginal
+    m_lo, m_hi = axes[-1, 0].get_xlim()
+    assert m_hi - m_lo < 0.25 * (box["mass"][1] - box["mass"][0])  # the weight's m is pinned
+    spanned = posterior.corner("weight", prior_box=True)
+    assert not [
+        patch
+        for patch in np.asarray(spanned.axes).reshape(5, 5)[0, 0].patches
+        if patch.get_facecolor()[:3] == pytest.approx(to_rgb(plots.PRIOR_COLOUR))
+    ]
+    joint = plots.plot_joint_corner(posterior)
+    j_lo, j_hi = np.asarray(joint.axes).reshape(6, 6)[-1, 3].get_xlim()
+    assert (j_lo, j_hi) == pytest.approx((m_lo, m_hi))

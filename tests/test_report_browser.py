@@ -7,6 +7,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from cases import PRIORS, TRUTH
 from matplotlib.image import imread
 
 from inertiafit.pipeline.fit import run_fit
@@ -81,3 +82,91 @@ def test_screenshot_shows_tables_and_figures(report, tmp_path):
     assert blue.sum() > 2000
     # A page that failed to draw is uniformly white.
     assert img.std() > 0.05
+
+
+#: Measures the page as laid out at the window's width, every ``<details>`` opened: the
+#: document's scroll width, every element that reaches past the window or spills out of its
+#: box, and every table box that would need a sideways scroll. Added to a copy of the page
+#: only; the report itself runs no such script.
+MEASURE = """<script>window.addEventListener('load', function () {
+  var folds = document.querySelectorAll('details');
+  for (var k = 0; k < folds.length; k++) { folds[k].open = true; }
+  var width = document.documentElement.clientWidth, bad = [];
+  var all = document.body.querySelectorAll('*');
+  for (var i = 0; i < all.length; i++) {
+    var e = all[i], r = e.getBoundingClientRect(), style = getComputedStyle(e);
+    if (r.right > width + 0.5) { bad.push('past window: ' + e.tagName); continue; }
+    if (style.overflowX === 'visible' && e.clientWidth > 0 && e.scrollWidth > e.clientWidth + 1)
+      { bad.push('spills: ' + e.tagName + ' ' + e.scrollWidth + ' > ' + e.clientWidth); }
+  }
+  var boxes = document.querySelectorAll('div.table');
+  for (var j = 0; j < boxes.length; j++) {
+    if (boxes[j].scrollWidth > boxes[j].clientWidth + 1)
+      { bad.push('scrolls: ' + boxes[j].textContent.slice(0, 60)); }
+  }
+  document.body.setAttribute('data-scroll-width', String(document.documentElement.scrollWidth));
+  document.body.setAttribute('data-tables', String(boxes.length));
+  document.body.setAttribute('data-overflow', bad.join(' | '));
+});</script>"""
+
+
+@pytest.fixture(scope="module")
+def study_report(tmp_path_factory):
+    from inertiafit.pipeline.study import run_study
+    from inertiafit.simulate import simulate_study
+
+    root = tmp_path_factory.mktemp("study")
+    manifest = simulate_study(
+        root / "study",
+        bodies=TRUTH,
+        conditions=[("attachment",), ("attachment", "weight")],
+        speeds=(240, 300),
+        trials_per_speed=2,
+        seed=3,
+        priors=PRIORS,
+    )
+    run_study(manifest, out=root / "out", seed=1, echo=lambda *a: None, progress=lambda *a: None)
+    return root / "out" / "report.html"
+
+
+def layout(report, tmp_path, width=1280):
+    """What :data:`MEASURE` finds in ``report`` at ``width`` px: scroll width, tables, faults."""
+    page = tmp_path / "measured.html"
+    page.write_text(report.read_text().replace("</body>", MEASURE + "</body>"))
+    dom = chromium(
+        f"--window-size={width},900",
+        "--virtual-time-budget=5000",
+        "--dump-dom",
+        page.as_uri(),
+        tmp_path=tmp_path,
+    ).stdout
+    found = dict(re.findall(r'data-(scroll-width|tables|overflow)="([^"]*)"', dom))
+    assert found, "the measuring script did not run"
+    return int(found["scroll-width"]), int(found["tables"]), found["overflow"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("which", ["study", "fit"])
+def test_nothing_overflows_a_1280_px_window(which, study_report, report, tmp_path):
+    page = study_report if which == "study" else report
+    width, tables, faults = layout(page, tmp_path)
+    assert tables >= (12 if which == "study" else 6)  # the study: a table per condition and kind
+    assert width <= 1280
+    assert faults == ""
+    # the negative control: the same page in a window too narrow for its widest table
+    width, _, faults = layout(page, tmp_path, width=500)
+    assert "scrolls: " in faults
+    assert width <= 500  # a wide table scrolls in its own box; the page never does
+
+
+@pytest.mark.slow
+def test_study_report_screenshot_at_1280_px(study_report, tmp_path):
+    shot = tmp_path / "page.png"
+    chromium("--window-size=1280,3000", f"--screenshot={shot}", study_report.as_uri(),
+             tmp_path=tmp_path)  # fmt: skip
+    img = imread(shot)[..., :3]
+    assert img.shape[:2] == (3000, 1280)
+    # the page's content column (1200 px) is centred: a white margin on both sides
+    columns = (img.max(-1) < 0.3).any(0)  # columns with text or lines
+    assert not columns[:30].any()
+    assert not columns[-30:].any()

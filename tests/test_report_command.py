@@ -2,6 +2,7 @@
 
 import functools
 import html
+import json
 import re
 import shutil
 
@@ -291,3 +292,59 @@ def test_report_refuses_a_truncated_traces_table(study_out, tmp_path, capsys):
         err,
     ), err
     assert {p.name: p.read_bytes() for p in copy.iterdir() if p.is_file()} == before
+
+
+def test_run_writes_methods_with_the_protocol_as_run(study_out):
+    md = (study_out / "methods.md").read_text()
+    result = load_result(study_out)
+    assert "2 bodies (attachment and weight) in 2 conditions" in md
+    assert (
+        "'attachment' (attachment): 1 quasi-static trial and 3 fast trials at each of 240 and "
+        "300 °/s; 'attachment+weight' (attachment and weight): 1 quasi-static trial and 3 fast "
+        "trials at each of 240 and 300 °/s."
+    ) in md
+    provenance = json.loads(result.posterior.attrs["provenance"])
+    rates = {t["sampling_rate"] for t in provenance["trials"]}
+    assert rates == {1000.0}
+    assert "The trials were sampled at 1000 Hz and read from csv files." in md
+    assert "order 2 and cut-off 20 Hz" in md
+    fast = result.trials[result.trials.kind == "fast"]
+    width = 1000 * (fast.window_end - fast.window_start)
+    assert f"windows lasted {width.median():.0f} ms" in md
+    assert f"median {1000 * fast.lag.median():.1f} ms" in md
+    summary = result.posterior.summary(0.95)
+    assert f"largest R-hat {summary.r_hat.max():.3f}" in md
+    bib = (study_out / "references.bib").read_text()
+    keys = re.findall(r"^@\w+\{([^,]+),", bib, flags=re.MULTILINE)
+    assert set(re.findall(r"\[@(\w+)\]", md)) == set(keys)
+
+
+def test_report_html_reads_at_a_glance(study_out):
+    page = (study_out / "report.html").read_text()
+    trials = page[page.index("<h2>Trials</h2>") : page.index("<h2>Speed effect</h2>")]
+    # one table per condition and kind of trial, units in the headers
+    assert re.findall(r"<h3>([^<]*)</h3>", trials) == [
+        "attachment: quasi-static trials",
+        "attachment: fast trials",
+        "attachment+weight: quasi-static trials",
+        "attachment+weight: fast trials",
+    ]
+    assert "I [kg m²] ± SE</th>" in trials
+    assert "M_g [N m] ± SE</th>" in trials
+    assert "lag [ms] ± SE</th>" in trials
+    assert trials.count("<tr>") == 4 + 2 + 12  # header rows + quasi-static + fast trials
+    effect = page[page.index("<h2>Speed effect</h2>") : page.index("<h2>Diagnostics</h2>")]
+    assert "&lt;NA&gt;" not in effect
+    assert ">nan<" not in effect
+    assert "mean_difference" not in effect
+    assert "p_tukey" not in effect
+    assert effect.count("240 vs 300") == 2
+    # provenance: one line, every file folded under it
+    inputs = page[page.index("<h2>Inputs and provenance</h2>") :]
+    assert inputs.startswith(
+        "<h2>Inputs and provenance</h2>\n<details><summary>14 trial files, the manifest and 2 "
+        "priors"
+    )
+    assert inputs.index("</summary>") < inputs.index("<table>")
+    assert "body(ies)" not in page
+    assert "identify m x" not in page

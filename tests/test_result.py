@@ -84,7 +84,10 @@ def test_log_likelihood_group_matches_the_evidence(attachment):
 def test_corner_returns_a_figure_with_a_panel_per_pair(attachment):
     fig = attachment.corner(truths={"mass": 2.91}, parameters=("mass", "com_distance"))
     assert len(fig.axes) == 4
-    assert fig.axes[0].get_xlim() == pytest.approx((1.455, 4.365))  # the prior box
+    lo, hi = fig.axes[0].get_xlim()  # zoomed to the posterior, at most 5 % past the box
+    assert 1.455 - 0.05 * 2.91 - 1e-9 <= lo < hi <= 4.365 + 0.05 * 2.91 + 1e-9
+    spanned = attachment.corner(parameters=("mass", "com_distance"), prior_box=True)
+    assert spanned.axes[0].get_xlim() == pytest.approx((1.455, 4.365))  # the prior box
 
 
 def test_step_bound_warns_and_marks_the_result_unconverged():

@@ -6,6 +6,8 @@ from inertiafit.report.tables import (
     summary_display,
     to_latex,
     to_markdown,
+    trial_tables,
+    tukey_display,
     write_table,
 )
 
@@ -89,3 +91,63 @@ def test_display_frames_format_intervals():
     assert c.loc[0, "posterior vs ideal"] == "-1.0 %"
     assert c.loc[0, "baseline vs ideal"] == ""
     assert c.loc[0, "identified by (post/prior SD)"] == "data (0.07)"
+
+
+def test_trial_tables_split_by_condition_with_units():
+    nan = float("nan")
+    trials = pd.DataFrame(
+        {
+            "file": ["a_qs.csv", "a_240.csv", "b_240.csv", "b_bad.csv"],
+            "condition": ["A", "A", "B", "B"],
+            "kind": ["quasi-static", "fast", "fast", "fast"],
+            "speed": [nan, 240.0, 240.0, 240.0],
+            "inertia": [nan, 0.21234, 0.8, nan],
+            "inertia_se": [nan, 0.0012, 0.002, nan],
+            "gravity_moment": [6.69, nan, nan, nan],
+            "gravity_moment_se": [0.022, nan, nan, nan],
+            "window_start": [nan, 0.199, 0.2, nan],
+            "window_end": [nan, 0.32, 0.33, nan],
+            "lag": [nan, 0.0002, -0.0001, nan],
+            "lag_se": [nan, 0.00014, 0.0001, nan],
+            "flags": ["", "", "", "skipped: unreadable"],
+            "status": ["ok", "ok", "ok", "skipped"],
+        }
+    )
+    tables = dict(trial_tables(trials))
+    assert list(tables) == ["A: quasi-static trials", "A: fast trials", "B: fast trials"]
+    fast = tables["A: fast trials"].iloc[0]
+    assert fast["I [kg m²] ± SE"] == "0.2123 ± 0.0012"
+    assert fast["window [s]"] == "0.199–0.320"
+    assert fast["lag [ms] ± SE"] == "0.2 ± 0.14"
+    assert tables["A: quasi-static trials"].iloc[0]["M_g [N m] ± SE"] == "6.69 ± 0.022"
+    bad = tables["B: fast trials"].iloc[1]
+    assert (bad["I [kg m²] ± SE"], bad["flags"]) == ("", "skipped: unreadable")
+    assert "kind" not in tables["A: fast trials"].columns  # one kind per table
+    assert "posture" not in tables["A: fast trials"].columns  # only for a living body
+    living = dict(trial_tables(trials.assign(posture="p1", damping=0.4, damping_se=0.1)))
+    assert living["A: fast trials"].iloc[0]["b [N m s/rad] ± SE"] == "0.4 ± 0.1"
+
+
+def test_tukey_pairs_are_formatted_not_dumped():
+    effect = pd.DataFrame(
+        {
+            "condition": ["A", "A", "A"],
+            "row": ["speed", "speed", "pair"],
+            "speed": [240.0, 300.0, 240.0],
+            "speed_b": [float("nan"), float("nan"), 300.0],
+            "mean_difference": [float("nan"), float("nan"), -0.0042476],
+            "p_tukey": [float("nan"), float("nan"), 0.888733],
+            "ci_lower": [float("nan"), float("nan"), -0.026961],
+            "ci_upper": [float("nan"), float("nan"), 0.0184658],
+        }
+    )
+    pairs = tukey_display(effect)
+    assert pairs.to_dict("records") == [
+        {
+            "condition": "A",
+            "speeds [°/s]": "240 vs 300",
+            "difference of means [kg m²]": "-0.00425",
+            "95% CI [kg m²]": "[-0.027, 0.0185]",
+            "p (Tukey HSD)": "0.889",
+        }
+    ]

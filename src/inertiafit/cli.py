@@ -147,8 +147,10 @@ class _Fit(_Command):
     help = "one body from numbers: inertia and gravity moment"
     description = (
         "Posterior of one body's (m, x, rho) from its moment of inertia about the joint and its "
-        "gravitational moment. Writes summary.csv, identification.csv, comparison.csv, "
-        "posterior.nc, corner.pdf and corner.png into --out."
+        "gravitational moment. Writes what `inertiafit run` writes, less the trial tables: "
+        "summary, identification and comparison tables (.csv/.md/.tex), posterior.nc, "
+        "corner.png, identification-<body>.png, trace and rank plots, methods.md, "
+        "references.bib and report.html into --out."
     )
 
     @staticmethod
@@ -251,6 +253,7 @@ class _Fit(_Command):
             help="SD of that balance point, m",
         )
         _add_common(p, "inertiafit-output")
+        _add_formats(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -272,6 +275,7 @@ class _Fit(_Command):
             mass_sd=args.mass_sd,
             com_distance=args.com_distance,
             com_distance_sd=args.com_distance_sd,
+            formats=args.formats,
             out=args.out,
             seed=args.seed,
             hdi_prob=args.hdi_prob,

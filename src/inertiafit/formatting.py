@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from numbers import Integral, Real
 
-__all__ = ["interval", "mean_sd", "number"]
+__all__ = ["interval", "mean_sd", "number", "plural"]
 
 
 def number(value: object, digits: int = 4) -> str:
@@ -39,3 +39,16 @@ def interval(lower: float, upper: float, digits: int = 4) -> str:
 def mean_sd(mean: float, sd: float) -> str:
     """``mean ± sd``: the mean to 4 significant figures, its SD to 2."""
     return f"{mean:.4g} ± {sd:.2g}"
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """A count with its noun in the right number: ``"1 body"``, ``"2 bodies"``, ``"0 trials"``.
+
+    ``many`` is the plural when it is not ``word`` + ``s`` (or ``-y`` -> ``-ies``).
+    """
+    if n == 1:
+        return f"1 {word}"
+    if many is None:
+        consonant_y = word.endswith("y") and word[-2:-1] not in ("a", "e", "i", "o", "u")
+        many = word[:-1] + "ies" if consonant_y else word + "s"
+    return f"{n} {many}"

@@ -251,10 +251,10 @@ def build_tree(
         "inputs": inputs_json(inputs or {}),
         "provenance": inputs_json(provenance or {}),
         "sampled_coordinates": (
-            "log(m x), log(I) per body (observed scale: times the torque gain), then log gain "
+            "log(m·x), log(I) per body (observed scale: times the torque gain), then log gain "
             "when torque_gain_sd > 0; psi = atan(x / rho) drawn exactly"
             if model.has_gain
-            else "log(m x), log(I) per body; psi = atan(x / rho) drawn exactly"
+            else "log(m·x), log(I) per body; psi = atan(x / rho) drawn exactly"
         ),
     }
     return xr.DataTree.from_dict(

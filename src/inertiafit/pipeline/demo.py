@@ -9,21 +9,40 @@ interval.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
+import tomllib
 from collections.abc import Callable
 from pathlib import Path
 
 from inertiafit import paper
 from inertiafit._checks import check_probability, check_seed
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
+from inertiafit.physics import REPORTED
 from inertiafit.pipeline.fit import run_fit
 from inertiafit.pipeline.information import run_information_demo
 from inertiafit.pipeline.study import analyse_study
 from inertiafit.report.outputs import write_outputs
-from inertiafit.report.text import study_comparison_text
+from inertiafit.report.text import study_comparison_text, truth_comparison_text
 from inertiafit.simulate import paper_study, rigid_view, simulate_living_study
 
-__all__ = ["DEMO_IDEALS", "paper_cases", "run_demo", "run_living_demo", "run_paper_demo"]
+__all__ = [
+    "DEMO_IDEALS",
+    "paper_cases",
+    "run_demo",
+    "run_living_demo",
+    "run_paper_demo",
+    "simulated_truths",
+]
+
+
+def simulated_truths(study_dir: Path) -> dict[str, dict[str, float]]:
+    """The true values of every body of a simulated study (its ``truth.toml``), SI units."""
+    truth = tomllib.loads((study_dir / "truth.toml").read_text(encoding="utf-8"))
+    return {
+        body: {k: float(values[k]) for k in REPORTED if k in values}
+        for body, values in truth["bodies"].items()
+    }
 
 
 def paper_cases() -> list[dict]:
@@ -109,6 +128,7 @@ def run_demo(
         with manifest.open("a", encoding="utf-8") as fh:
             fh.write(DEMO_IDEALS)
         result = analyse_study(manifest, seed=seed, hdi_prob=hdi_prob, echo=say)
+        result = dataclasses.replace(result, truths=simulated_truths(manifest.parent))
         say(f"writing {out}")
         write_outputs(folder, result)
         echo("=" * 100)
@@ -116,6 +136,10 @@ def run_demo(
         echo("=" * 100)
         echo(result.posterior.report(hdi_prob))
         echo("")
+        echo("The simulation's truth and the posterior:")
+        echo(truth_comparison_text(result))
+        echo("")
+        echo("The ideal (textbook) bodies, the posterior and the paper's estimator:")
         echo(study_comparison_text(result))
         for w in result.warnings:
             echo(f"warning: {w}")
@@ -140,8 +164,9 @@ def run_demo(
         run_living_demo(folder / "living", seed=seed, hdi_prob=hdi_prob, echo=echo, say=say)
         echo("")
     echo(
-        f"wrote {out}/: report.html, summary, comparison, speed_effect and trials tables "
-        "(.csv/.md/.tex), posterior.nc, figures; study/ (simulated trials); paper-numbers/; "
+        f"wrote {out}/: report.html, methods.md, references.bib, summary, comparison, "
+        "speed_effect and trials tables (.csv/.md/.tex), posterior.nc, figures; study/ "
+        "(simulated trials, truth.toml); paper-numbers/ (report.html each); "
         "information/ (information.csv, forearm-study/); living/ (a living forearm's run, "
         "living.csv)"
     )
@@ -163,7 +188,6 @@ def run_living_demo(
     ``I`` and ``M_g``: truth, the rigid model's median and HDI and its error, the living
     model's.
     """
-    import tomllib
     import warnings
 
     import pandas as pd
@@ -184,7 +208,7 @@ def run_living_demo(
             rigid = analyse_study(rigid_view(manifest), seed=seed, hdi_prob=hdi_prob, echo=say)
         except InputError as exc:  # its gravity model too poor to subtract: refused
             refused = str(exc)
-    write_outputs(out, living)
+    write_outputs(out, dataclasses.replace(living, truths=simulated_truths(manifest.parent)))
     truth = tomllib.loads((manifest.parent / "truth.toml").read_text(encoding="utf-8"))
     body = truth["bodies"]["forearm"]
     m, rho, x = body["mass"], body["radius_of_gyration"], body["com_distance"]

@@ -14,14 +14,13 @@ from inertiafit.inference.fit import fit_body
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
 from inertiafit.physics import GRAVITY
+from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior
-from inertiafit.report.outputs import write_fit_outputs
+from inertiafit.report.outputs import write_outputs
 from inertiafit.report.result import Result, make_result
 from inertiafit.report.text import fit_comparison_text
 
-__all__ = ["FIT_FILES", "fit_result", "prior_baseline", "run_fit"]
-
-FIT_FILES = "summary.csv identification.csv comparison.csv posterior.nc corner.pdf corner.png"
+__all__ = ["fit_result", "prior_baseline", "run_fit"]
 
 
 def prior_baseline(
@@ -98,6 +97,7 @@ def run_fit(
     mass_sd: float | None = None,
     com_distance: float | None = None,
     com_distance_sd: float | None = None,
+    formats: tuple[str, ...] | list[str] = DEFAULT_FORMATS,
 ) -> Posterior:
     """``inertiafit fit``: posterior of one body, written to ``out`` and printed.
 
@@ -105,9 +105,12 @@ def run_fit(
     that will be renamed (the demo). ``mass``/``mass_sd`` (a weighing, kg) and
     ``com_distance``/``com_distance_sd`` (a balance point, m) are passed to
     :func:`~inertiafit.inference.fit.fit_body`. ``out`` is checked first
-    (:func:`~inertiafit.io.outputs.check_out`).
+    (:func:`~inertiafit.io.outputs.check_out`). ``out`` receives the same set of outputs as
+    ``inertiafit run`` (:func:`~inertiafit.report.outputs.write_outputs`: tables, figures in
+    ``formats``, ``methods.md``, ``references.bib``, ``report.html``), less the trial tables.
     """
     check_seed(seed)
+    fmts = check_formats(formats)
     check_probability(hdi_prob, "hdi_prob")
     check_positive(gravity, "gravity", "m/s^2")
     check_out(out, inputs=[prior.path if isinstance(prior, Prior) else prior])
@@ -139,11 +142,17 @@ def run_fit(
         hdi_prob=hdi_prob,
     )
     with output_folder(out) as folder:
-        write_fit_outputs(folder, result)
+        written = write_outputs(folder, result, formats=fmts)
     echo(prior_obj.describe())
     echo("")
     echo(post.report(hdi_prob))
     echo("")
     echo(fit_comparison_text(result))
-    echo(f"\nwrote {Path(shown_as or out)}/: {FIT_FILES}")
+    tables = sorted({n.rsplit(".", 1)[0] for n in written if n.endswith(".md")} - {"methods"})
+    figures = sorted({n.rsplit(".", 1)[0] for n in written if n.rsplit(".", 1)[-1] in fmts})
+    echo(
+        f"\nwrote {Path(shown_as or out)}/: report.html, methods.md, references.bib, "
+        f"posterior.nc; tables {', '.join(tables)} (.csv/.md/.tex); figures "
+        f"{', '.join(figures)} ({', '.join(fmts)})"
+    )
     return post

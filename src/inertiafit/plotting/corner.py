@@ -25,7 +25,7 @@ from inertiafit.plotting.style import (
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["corner_figure"]
+__all__ = ["IDEAL_COLOUR", "corner_figure", "posterior_range"]
 
 
 def corner_figure(
@@ -37,8 +37,10 @@ def corner_figure(
     boxes: Sequence[tuple[float, float] | None],
     priors: Sequence[np.ndarray | None],
     truths: Sequence[float | None] | None = None,
+    ideals: Sequence[float | None] | None = None,
     quantiles: Sequence[float] = (0.16, 0.5, 0.84),
     note: str = "",
+    band: bool = False,
     fig: Figure | None = None,
     width="double",
     **corner_kwargs,
@@ -62,11 +64,18 @@ def corner_figure(
         Prior draws per dimension, histogrammed in grey on the diagonal, scaled to the
         posterior's number of draws; or None.
     truths : sequence of float or None, optional
-        Known values drawn as lines; None entries are skipped.
+        Known values drawn as lines (solid, :data:`PALETTE` ``[1]``): a simulation's truth;
+        None entries are skipped.
+    ideals : sequence of float or None, optional
+        Reference values drawn as dashed lines in :data:`IDEAL_COLOUR` (an ideal, textbook
+        body), apart from ``truths``; None entries are skipped.
     quantiles : sequence of float
         Quantiles marked on the diagonal.
     note : str
         Text in the top right corner.
+    band : bool
+        Shade each prior box on its diagonal panel (for axes zoomed to the posterior,
+        :func:`posterior_range`, where the box's frame no longer shows it).
     fig : matplotlib.figure.Figure, optional
         Figure to draw into; without a layout engine (corner.py sets the margins).
     width : {"single", "double"} or float
@@ -126,6 +135,9 @@ def corner_figure(
         rng = kwargs["range"]
         for i in range(k):
             ax = axes[i, i]
+            box = boxes[i]
+            if band and box is not None:
+                ax.axvspan(box[0], box[1], color=PRIOR_COLOUR, alpha=0.12, lw=0, zorder=0)
             prior = priors[i]
             if prior is not None:
                 edges = np.linspace(float(min(rng[i])), float(max(rng[i])), bins + 1)
@@ -143,6 +155,44 @@ def corner_figure(
                         if lo <= v <= hi:
                             line = axes[i, j].axvline if vertical else axes[i, j].axhline
                             line(v, **edge)
+        if ideals is not None:
+            _ideal_lines(axes, ideals, rng)
         if note:
             fig.text(0.98, 0.98, note, ha="right", va="top", fontsize=8)
     return fig
+
+
+#: Colour of the ideal body's dashed lines (the truth's are ``PALETTE[1]``).
+IDEAL_COLOUR = PALETTE[2]
+
+
+def _ideal_lines(axes: np.ndarray, ideals: Sequence[float | None], rng: Sequence) -> None:
+    """Dashed lines at the ideal values, on every panel of their dimension."""
+    style = {"color": IDEAL_COLOUR, "ls": (0, (4, 2)), "lw": 0.9}
+    k = axes.shape[0]
+    for i in range(k):
+        for j in range(i + 1):
+            for dim, vertical in ((j, True), (i, False)):
+                v = ideals[dim]
+                if v is None or (i == j and not vertical):
+                    continue
+                lo, hi = sorted(rng[dim])
+                if lo <= v <= hi:
+                    (axes[i, j].axvline if vertical else axes[i, j].axhline)(v, **style)
+
+
+def posterior_range(
+    draws: np.ndarray, box: tuple[float, float] | None = None
+) -> tuple[float, float]:
+    """Axis limits that show the draws: their 0.1-99.9 % range padded by 10 % each side.
+
+    With a prior ``box``, the limits reach at most 5 % of its width beyond it, so a posterior
+    that fills its box shows the box's edges, and a pinned one is not a one-bin spike.
+    """
+    lo, hi = (float(v) for v in np.quantile(draws, [0.001, 0.999]))
+    pad = 0.1 * (hi - lo) if hi > lo else 0.05 * max(abs(lo), 1e-12)
+    lo, hi = lo - pad, hi + pad
+    if box is not None:
+        margin = 0.05 * (box[1] - box[0])
+        lo, hi = max(lo, box[0] - margin), min(hi, box[1] + margin)
+    return lo, hi

@@ -313,8 +313,9 @@ class Posterior:
         *,
         parameters: tuple[str, ...] = REPORTED,
         truths: dict[str, float] | None = None,
+        ideal: dict[str, float] | None = None,
         quantiles: tuple[float, ...] = (0.16, 0.5, 0.84),
-        prior_box: bool = True,
+        prior_box: bool | str = "band",
         fig=None,
         width: str | float = "double",
         **corner_kwargs,
@@ -329,14 +330,17 @@ class Posterior:
             Quantities to show (default: the three parameters and ``inertia``,
             ``gravity_moment``).
         truths : dict of str to float, optional
-            Known values (SI units) drawn as lines, e.g. an ideal body's.
+            Known values (SI units) drawn as solid lines, e.g. a simulation's truth.
+        ideal : dict of str to float, optional
+            An ideal (textbook) body's values, drawn as dashed lines in another colour.
         quantiles : tuple of float
             Quantiles marked on the 1-D histograms.
-        prior_box : bool
-            Set the axes of ``mass``, ``com_distance`` and ``radius_of_gyration`` to the prior
-            bounds, so one sees where the posterior sits inside the box; the box edges are
-            drawn dashed (on the frame unless ``range=`` widens the axes) and the prior's
-            marginals in grey on the diagonal.
+        prior_box : {"band", True, False}
+            ``"band"`` (default): the axes of ``mass``, ``com_distance`` and
+            ``radius_of_gyration`` are zoomed to the posterior and the prior box is shaded on
+            the diagonal, its edges dashed where they fall inside the axes; ``True``: those axes
+            span the prior bounds exactly, so one sees where the posterior sits inside the box;
+            ``False``: no box. The prior's marginals are drawn in grey on the diagonal.
         fig : matplotlib.figure.Figure, optional
             Figure to draw into (a new one, not managed by pyplot, by default).
         width : {"single", "double"} or float
@@ -349,6 +353,7 @@ class Posterior:
         matplotlib.figure.Figure
         """
         from inertiafit.plotting import axis_label, corner_figure
+        from inertiafit.plotting.corner import posterior_range
 
         if body is None:
             if len(self.bodies) != 1:
@@ -359,12 +364,9 @@ class Posterior:
         ranges, boxes = [], []
         for p, x in zip(parameters, columns, strict=True):
             box = bounds[p] if prior_box and p in PARAMETERS else None
-            if box is None:
-                lo, hi = np.quantile(x, [0.001, 0.999])
-                pad = 0.1 * (hi - lo)
-                ranges.append((float(lo - pad), float(hi + pad)))
-            else:
-                ranges.append(box)
+            ranges.append(
+                box if box is not None and prior_box is True else posterior_range(x, box)
+            )
             boxes.append(box)
         return corner_figure(
             columns,
@@ -374,8 +376,10 @@ class Posterior:
             boxes=boxes,
             priors=[self.draws(body, p, "prior").ravel() for p in parameters],
             truths=[truths.get(p) for p in parameters] if truths else None,
+            ideals=[ideal.get(p) for p in parameters] if ideal else None,
             quantiles=quantiles,
             note=body,
+            band=prior_box == "band",
             fig=fig,
             width=width,
             **corner_kwargs,

@@ -11,7 +11,7 @@ import html
 import math
 from typing import TYPE_CHECKING, Any
 
-from inertiafit.formatting import interval
+from inertiafit.formatting import interval, plural
 from inertiafit.physics import UNITS
 
 if TYPE_CHECKING:
@@ -60,7 +60,7 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
     pct = f"{100 * hdi_prob:g}% HDI"
     width = max(6, *(len(b) for b in post.bodies)) + 2
     lines = [
-        f"inertiafit posterior: {len(post.bodies)} body(ies); {a.get('n_walkers')} walkers x "
+        f"inertiafit posterior: {plural(len(post.bodies), 'body')}; {a.get('n_walkers')} walkers x "
         f"{post.tree['posterior'].sizes['draw']} draws kept of {a.get('n_steps')} steps; "
         f"tau {float(a.get('tau_max', math.nan)):.1f} steps; seed {a.get('seed')}; "
         + ("converged" if post.converged else "NOT CONVERGED"),
@@ -83,10 +83,14 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
     for body in post.bodies:
         mmin = float(ident.loc[ident.body == body, "minimum_mass"].iloc[0])
         lines.append(
-            f"{body}: the data identify m x and I; physical consistency needs "
+            f"{body}: the data identify m·x and I; physical consistency needs "
             f"m >= (M_g/g)^2/I = {mmin:.4g} kg"
         )
-    lines.append("What pins what (prior share: d log posterior SD / d log prior scale):")
+    lines.append(
+        "What pins what. prior share = d log(posterior SD) / d log(prior scale): 1 when the "
+        "prior alone sets a quantity's width, 0 when the data do (values a little outside 0-1 "
+        "are Monte Carlo noise):"
+    )
     lines += [f"  {line}" for line in post.what_pins_what().values()]
     lines += correlation_text(post)
     lines.append(post.calibration_note())

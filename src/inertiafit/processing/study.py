@@ -189,7 +189,8 @@ class ProcessedStudy:
     provenance : list of dict
         Per trial in manifest order: ``file`` (relative to the manifest), ``path``,
         ``sha256`` (of the file as read; ``None`` if it could not be read), ``condition``,
-        ``kind``, ``status`` and ``reader`` (:meth:`~inertiafit.io.TrialSpec.reader_settings`).
+        ``kind``, ``status``, ``reader`` (:meth:`~inertiafit.io.TrialSpec.reader_settings`)
+        and, once read, ``sampling_rate`` (Hz; the Methods text reports it).
     sensitivity : pandas.DataFrame
         A row per fast trial used, indexed by ``file`` (as in ``trials``), columns
         :data:`SENSITIVITY_COLUMNS`: the trial's
@@ -923,6 +924,7 @@ def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
             f"(identical content, SHA-256 {digest[:12]}...); list each recording once"
         )
     ds = spec.read()
+    run.provenance[spec.index]["sampling_rate"] = float(ds.attrs["sampling_rate"])
     flags = tuple(str(f) for f in (ds.attrs.get("flags", ()) or ()))
     if isinstance(ds.attrs.get("flags"), str):  # one flag stored as a string
         flags = (ds.attrs["flags"],)

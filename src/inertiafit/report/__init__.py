@@ -9,6 +9,8 @@
   function, section and caption in ``report.html``), read by the file writer and the page;
 - :mod:`~inertiafit.report.html`: the self-contained ``report.html``;
 - :mod:`~inertiafit.report.text`: comparison tables for the terminal;
+- :mod:`~inertiafit.report.methods`: the Methods text (``methods.md``) of a result, and
+  :mod:`~inertiafit.report.references` its reference list (``references.bib``);
 - :mod:`~inertiafit.report.outputs`: every output file of a result into a folder.
 
 Nothing here samples or reads trial files: the pipeline builds a :class:`Result`, the report

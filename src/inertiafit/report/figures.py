@@ -78,17 +78,27 @@ def figure_records(result: Result) -> list[FigureRecord]:
         add(
             FigureRecord(
                 "corner" if result.from_numbers else f"corner-{body}",
-                functools.partial(post.corner, body, truths=result.ideals.get(body) or None),
+                functools.partial(
+                    post.corner,
+                    body,
+                    truths=result.truths.get(body) or None,
+                    ideal=result.ideals.get(body) or None,
+                ),
                 "Corner plots",
-                f"{body}: axes of m, x and rho span the prior box"
-                + ("; lines: ideal body" if body in result.ideals else ""),
+                f"{body}: axes zoomed to the posterior; shaded: the prior box; grey: the prior"
+                + _lines(result, body),
             )
         )
     if len(post.bodies) > 1:
         add(
             FigureRecord(
                 "corner-joint",
-                functools.partial(plots.plot_joint_corner, post, truths=result.ideals or None),
+                functools.partial(
+                    plots.plot_joint_corner,
+                    post,
+                    truths=result.truths or None,
+                    ideals=result.ideals or None,
+                ),
                 "Corner plots",
                 "all bodies together",
             )
@@ -171,3 +181,13 @@ def figure_records(result: Result) -> list[FigureRecord]:
             )
         )
     return records
+
+
+def _lines(result: Result, body: str) -> str:
+    """What the lines of a body's corner plot are, for its caption."""
+    said = []
+    if body in result.truths:
+        said.append("the simulation's truth (solid)")
+    if body in result.ideals:
+        said.append("the ideal body (dashed)")
+    return "; lines: " + " and ".join(said) if said else ""

@@ -13,14 +13,17 @@ import base64
 import html
 import io
 import json
+import re
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from inertiafit.formatting import number
+from inertiafit.formatting import number, plural
 from inertiafit.report.figures import FigureRecord, figure_records
+from inertiafit.report.methods import methods_html, prior_table
 from inertiafit.report.result import Result
 from inertiafit.report.tables import (
     comparison_display,
@@ -29,11 +32,19 @@ from inertiafit.report.tables import (
     passive_display,
     speed_effect_display,
     summary_display,
+    trial_tables,
+    tukey_display,
 )
 
 __all__ = [
+    "PRIOR_SHARE_NOTE",
+    "Details",
+    "Fragment",
+    "Heading",
     "figure_png",
     "figure_png_base64",
+    "prior_items",
+    "provenance_line",
     "provenance_table",
     "skipped_trials",
     "study_report",
@@ -42,15 +53,38 @@ __all__ = [
 ]
 
 _STYLE = """
-body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1200px; color: #222;
+  padding: 0 1em; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; }
-table { border-collapse: collapse; font-size: 0.85em; margin: 0.5em 0 1.5em; }
+h3 { font-size: 1.05em; margin-bottom: 0.3em; }
+.table { max-width: 100%; overflow-x: auto; margin: 0.5em 0 1.5em; }
+table { border-collapse: collapse; font-size: 0.85em; }
 th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: right; }
 th { background: #f4f4f4; } td:first-child, th:first-child { text-align: left; }
-figure { margin: 1em 0; } img { max-width: 100%; border: 1px solid #eee; }
-.note { color: #555; font-size: 0.9em; } pre { background: #f8f8f8; padding: 0.6em; }
-.warn { color: #a33; }
+td { white-space: nowrap; }
+.text { text-align: left; white-space: normal; overflow-wrap: anywhere; }
+figure { margin: 1em 0; } img { max-width: 100%; height: auto; border: 1px solid #eee; }
+.note { color: #555; font-size: 0.9em; }
+pre { background: #f8f8f8; padding: 0.6em; white-space: pre-wrap; overflow-wrap: anywhere; }
+.warn { color: #a33; } details > summary { cursor: pointer; }
+p.methods { max-width: 50em; line-height: 1.45; } ol.refs { font-size: 0.9em; }
 """
+
+
+class Heading(str):
+    """A sub-heading (``<h3>``) among a section's items."""
+
+
+class Fragment(str):
+    """Trusted HTML among a section's items, written as is (made by inertiafit, escaped)."""
+
+
+@dataclass(frozen=True)
+class Details:
+    """A folded block among a section's items: one summary line, its items shown on a click."""
+
+    summary: str
+    items: list = field(default_factory=list)
 
 
 def figure_png(fig, dpi: int = 110) -> bytes:
@@ -65,21 +99,55 @@ def figure_png_base64(fig, dpi: int = 110) -> str:
     return base64.b64encode(figure_png(fig, dpi)).decode("ascii")
 
 
+def _is_text(values: pd.Series) -> bool:
+    """Whether a column holds words rather than numbers (left-aligned, free to wrap)."""
+    if pd.api.types.is_numeric_dtype(values):
+        return False
+    shown = [str(v) for v in values if isinstance(v, str) and v]
+    return any(not _NUMERIC.fullmatch(v) for v in shown)
+
+
+_NUMERIC = re.compile(r"[-+\u2212]?[\d.,eE+\- ±\[\]%–]*")
+
+
 def table_html(frame: pd.DataFrame, digits: int = 4) -> str:
-    """An HTML table with numbers rounded to ``digits`` significant figures."""
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
+    """An HTML table with numbers rounded to ``digits`` significant figures.
+
+    Wrapped in a box that scrolls sideways rather than widen the page; columns of words are
+    left-aligned and wrap.
+    """
+    text = [_is_text(frame[c]) for c in frame.columns]
+    head = "".join(
+        ("<th class='text'>" if t else "<th>") + f"{html.escape(str(c))}</th>"
+        for c, t in zip(frame.columns, text, strict=True)
+    )
     rows = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(number(v, digits))}</td>" for v in row) + "</tr>"
+        "<tr>"
+        + "".join(
+            ("<td class='text'>" if t else "<td>") + f"{html.escape(number(v, digits))}</td>"
+            for v, t in zip(row, text, strict=True)
+        )
+        + "</tr>"
         for row in frame.itertuples(index=False)
     )
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
+    return (
+        f"<div class='table'><table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody>"
+        "</table></div>"
+    )
 
 
 def _item_html(entry, heading: str) -> str:
-    """One item of a section: a table, a paragraph, or a figure with its caption."""
+    """One item of a section: a table, a paragraph, a figure with its caption, a fold."""
     caption, item = entry if isinstance(entry, tuple) else ("", entry)
     if isinstance(item, pd.DataFrame):
         return table_html(item)
+    if isinstance(item, Details):
+        inner = "".join(_item_html(e, heading) for e in item.items)
+        return f"<details><summary>{html.escape(item.summary)}</summary>{inner}</details>"
+    if isinstance(item, Heading):
+        return f"<h3>{html.escape(item)}</h3>"
+    if isinstance(item, Fragment):
+        return str(item)
     if isinstance(item, str):
         if item.startswith("pre:"):
             return f"<pre>{html.escape(item[4:])}</pre>"
@@ -169,6 +237,7 @@ def write_report(
     sections: list[tuple[str, list]],
     notes: Mapping[str, object] | None = None,
     appendix: list | None = None,
+    provenance: str | None = None,
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -186,9 +255,16 @@ def write_report(
         Key-value pairs listed at the end (inputs, versions, seed).
     appendix : list, optional
         Items (as in a section) shown after ``notes`` under "Inputs and provenance".
+    provenance : str, optional
+        The one line "Inputs and provenance" shows; ``notes`` and ``appendix`` are folded
+        under it (``<details>``) and open on a click.
+
+    Items may also be a :class:`Heading` (``<h3>``), a :class:`Details` (a folded block of
+    items) or a :class:`Fragment` (trusted HTML).
     """
     parts = [
         "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>",
         f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
         f"<h1>{html.escape(title)}</h1>",
     ]
@@ -197,15 +273,14 @@ def write_report(
         parts.extend(_item_html(entry, heading) for entry in items)
     if notes or appendix:
         parts.append("<h2>Inputs and provenance</h2>")
-    if notes:
-        parts.append("<table><tbody>")
-        for k, v in notes.items():
-            parts.append(
-                f"<tr><td>{html.escape(k)}</td><td style='text-align:left'>"
-                f"{html.escape(str(v))}</td></tr>"
+        folded: list = []
+        if notes:
+            folded.append(
+                pd.DataFrame({"item": list(notes), "value": [str(v) for v in notes.values()]})
             )
-        parts.append("</tbody></table>")
-    parts.extend(_item_html(entry, "Inputs and provenance") for entry in appendix or [])
+        folded += list(appendix or [])
+        line = provenance or "Inputs, software versions and seed"
+        parts.append(_item_html(Details(line, folded), "Inputs and provenance"))
     # Records, once the page has loaded, how many embedded figures the browser decoded; a
     # headless-browser test reads it back (nothing is fetched: the page stays offline).
     parts.append(
@@ -275,44 +350,51 @@ def study_report(
                 ],
             )
         )
+    ident = post.identification()
     sections += [
         (
             "Posterior",
             [
                 (
-                    f"Median and {100 * hdi_prob:g}% highest-density interval of every body's parameters "
-                    "from one joint posterior over all conditions. 'identified by' compares the "
-                    "posterior's SD with the prior's: data < 0.3 <= data + prior <= 0.7 < prior."
+                    f"Median and {100 * hdi_prob:g}% highest-density interval of every body's "
+                    "parameters from one joint posterior over all conditions. 'identified by' "
+                    "compares the posterior's SD with the prior's: data < 0.3 <= data + prior "
+                    "<= 0.7 < prior."
                 ),
                 summary_display(summary),
-                "pre:" + post.report(hdi_prob),
+                post.report(hdi_prob).splitlines()[0] + ".",
+                *(
+                    f"{body}: physical consistency needs m >= (M_g/g)^2/I = "
+                    f"{float(ident.loc[ident.body == body, 'minimum_mass'].iloc[0]):.4g} kg."
+                    for body in post.bodies
+                ),
+                post.calibration_note(),
             ],
         ),
         (
             "What pins what",
             [
                 (
-                    "One rotation axis pins only m x (from M_g) and I per body; where the body "
-                    "sits on the curve of constant m x and I is decided by the prior unless a "
-                    "weighed mass, a balance point or a second mounting pins it. 'prior share' "
-                    "is d log(posterior SD) / d log(prior scale): 1 when the prior alone sets a "
-                    "quantity's width, 0 when the data do (the box shrunk about its centre; "
-                    "power-scaling, as arviz-stats psense does, leaves a box unchanged, so "
-                    "'psense prior' is blank for a box)."
+                    "One rotation axis pins only m·x (from M_g) and I per body; where the body "
+                    "sits on the curve of constant m·x and I is decided by the prior unless a "
+                    "weighed mass, a balance point or a second mounting pins it."
                 ),
+                PRIOR_SHARE_NOTE,
                 *post.what_pins_what().values(),
                 identification_display(result.identification()),
                 "Posterior correlations of m, x and rho:",
                 correlation_display(post.correlations()),
             ],
         ),
+        ("Priors", prior_items(result)),
         (
             "Comparison with ideal bodies and the paper's estimator",
             [
                 (
-                    "ideal: textbook model declared in the manifest; paper's baseline: the multi-start "
-                    "least squares of Son et al. Eq. (4), feasible-region mean (a body added to another "
-                    "is fitted to the difference of the condition means, as the paper does)."
+                    "ideal: textbook model declared in the manifest; paper's baseline: the "
+                    "multi-start least squares of Son et al. Eq. (4), feasible-region mean (a "
+                    "body added to another is fitted to the difference of the condition means, "
+                    "as the paper does)."
                 ),
                 comparison_display(result.comparison, hdi_prob),
             ],
@@ -322,8 +404,10 @@ def study_report(
             "Identification curves",
             [
                 (
-                    "Rotation about one axis identifies only m x = M_g/g and I = m (rho^2 + x^2): the "
-                    "bodies that fit the data lie on a curve; the prior box decides where on it."
+                    "Rotation about one axis identifies only m·x = M_g/g and I = m (rho^2 + "
+                    "x^2): the bodies that fit the data lie on a curve. Where the data pin m·x "
+                    "and I (see 'What pins what'), the prior box decides where on the curve "
+                    "the body sits."
                 ),
                 *figs("Identification curves"),
             ],
@@ -349,6 +433,9 @@ def study_report(
             )
         )
     if len(result.trials):
+        tables: list = []
+        for title, table in trial_tables(result.trials):
+            tables += [Heading(title), table]
         sections.append(
             (
                 "Trials",
@@ -364,21 +451,48 @@ def study_report(
                             )
                         ]
                     ),
-                    result.trials,
+                    "Every trial as processed (trials.csv has every value at full precision).",
+                    *tables,
                 ],
             )
         )
+        pairs = tukey_display(result.speed_effect)
         sections.append(
-            ("Speed effect", [speed_effect_display(result.speed_effect), result.speed_effect])
+            (
+                "Speed effect",
+                [
+                    (
+                        "Inertia per condition and speed (mean ± SD over the trials), with the "
+                        "one-way ANOVA across speeds of each condition:"
+                    ),
+                    speed_effect_display(result.speed_effect),
+                    *(
+                        ["Pairs of speeds (Tukey HSD), difference of mean inertias:", pairs]
+                        if len(pairs)
+                        else []
+                    ),
+                ],
+            )
         )
     sections.append(
         (
             "Diagnostics",
             [
                 diag,
-                result.identification(),
                 *figs("Diagnostics"),
                 *(["warn:" + w for w in result.warnings] or ["No trial flags."]),
+            ],
+        )
+    )
+    sections.append(
+        (
+            "Methods",
+            [
+                (
+                    "Generated from this analysis; the same text is in methods.md and its "
+                    "references in references.bib, ready to edit into a manuscript."
+                ),
+                Fragment(methods_html(result, table_html)),
             ],
         )
     )
@@ -418,4 +532,62 @@ def study_report(
         sections=sections,
         notes=notes,
         appendix=appendix,
+        provenance=provenance_line(result, files),
+    )
+
+
+#: What the "prior share" column means, where report.html shows it.
+PRIOR_SHARE_NOTE = (
+    "'prior share' = d log(posterior SD) / d log(prior scale): how much of a quantity's "
+    "posterior width follows from its prior. Narrow every prior by a small factor: a share of 1 "
+    "means the posterior narrows by the same factor (the prior alone sets the width), 0 means it "
+    "does not move (the data set it). It is estimated by reweighting the draws, so values a "
+    "little outside 0-1 (-0.05, 1.1) are Monte Carlo noise around those ends. The box is shrunk "
+    "about its centre; power-scaling, as arviz-stats psense does, leaves a box unchanged, so "
+    "'psense prior' is blank for a box."
+)
+
+
+def prior_items(result: Result) -> list:
+    """The "Priors" section: per body its prior's kind, parameters, bounds and source."""
+    items: list = [
+        (
+            "The prior of each body's mass m, centre-of-mass distance x and radius of gyration "
+            "rho, as the posterior was sampled with it (stored in posterior.nc)."
+        )
+    ]
+    for body, prior in result.priors.items():
+        items.append(Heading(body))
+        if prior.description:
+            items.append(prior.description)
+        items.append(prior_table(prior))
+        if prior.anthropometric:
+            items.append(
+                "anthropometric table: "
+                + ", ".join(f"{k} {v}" for k, v in prior.anthropometric.items() if v)
+            )
+        items.append(f"source: {prior.source}" if prior.source else "source: not given")
+    return items
+
+
+def provenance_line(result: Result, files: pd.DataFrame) -> str:
+    """One line saying what the result was computed from; the detail is folded under it."""
+    a = result.posterior.attrs
+    try:
+        versions = json.loads(a.get("versions") or "{}")
+    except (TypeError, ValueError):
+        versions = {}
+    tail = f"inertiafit {versions.get('inertiafit', '?')}, seed {a.get('seed')}"
+    if result.from_numbers:
+        return f"Fitted from reported numbers; {tail}. Details: click to open."
+    if not len(files):
+        return f"Input files not recorded; {tail}. Details: click to open."
+    trials = files[files["input"].str.contains(" trial, ")]
+    skipped = int((trials["status"] == "skipped").sum())
+    priors = int(files["input"].str.startswith("prior of ").sum())
+    return (
+        f"{plural(len(trials), 'trial file')}"
+        + (f" ({skipped} skipped)" if skipped else "")
+        + f", the manifest and {plural(priors, 'prior')}, each with its SHA-256 and reader "
+        f"settings; {tail}. Click for every file."
     )

@@ -1,8 +1,8 @@
-"""Every output file of a result: tables, figures, ``posterior.nc``, ``report.html``.
+"""Every output file of a result: tables, figures, ``posterior.nc``, Methods, ``report.html``.
 
-:func:`write_outputs` writes the whole set (``inertiafit run``, ``demo``, ``report``);
-:func:`write_fit_outputs` the compact set of ``inertiafit fit``. Both draw only from a
-:class:`~inertiafit.report.result.Result`; neither reads trial files.
+:func:`write_outputs` writes the whole set for every command that samples or redraws a
+posterior (``inertiafit run``, ``fit``, ``demo``, ``report``). It draws only from a
+:class:`~inertiafit.report.result.Result` and never reads trial files.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from inertiafit.plotting.style import DEFAULT_FORMATS
 from inertiafit.report import plots
 from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.report.html import figure_png, study_report
+from inertiafit.report.methods import write_methods
 from inertiafit.report.result import Result
 from inertiafit.report.tables import (
     comparison_display,
@@ -32,7 +33,6 @@ __all__ = [
     "DATA_FILES",
     "FIGURE_WORKERS",
     "draw_figures",
-    "write_fit_outputs",
     "write_outputs",
     "write_tables",
 ]
@@ -179,8 +179,10 @@ def write_outputs(
 ) -> list[str]:
     """Every output file into ``folder`` (which must exist); the names written, sorted.
 
-    ``save_data`` writes :data:`DATA_FILES` too (``posterior.nc``, ``trials.csv`` and
-    ``traces.csv``): once, when the posterior is sampled; a redraw reads them instead.
+    The tables come with ``methods.md`` and ``references.bib``
+    (:func:`~inertiafit.report.methods.write_methods`). ``save_data`` writes
+    :data:`DATA_FILES` too (``posterior.nc``, ``trials.csv`` and ``traces.csv``): once, when
+    the posterior is sampled; a redraw reads them instead.
     Every figure of :func:`~inertiafit.report.figures.figure_records` is saved in
     ``formats`` (default PNG only; PDF and SVG when asked) by :func:`draw_figures`
     (``workers`` processes) and shown in ``report.html``.
@@ -190,6 +192,7 @@ def write_outputs(
 
     def tables_and_data() -> None:
         write_tables(folder, result, hdi_prob=hdi_prob)
+        write_methods(folder, result)
         if save_data:
             result.posterior.save(folder / "posterior.nc")
             if len(result.trials):
@@ -207,18 +210,3 @@ def write_outputs(
     )
     study_report(folder / "report.html", result, embedded, hdi_prob, records)
     return sorted({p.name for p in folder.iterdir()} - before)
-
-
-def write_fit_outputs(folder: Path, result: Result) -> None:
-    """``inertiafit fit``: the compact set of outputs of one body fitted from numbers.
-
-    ``summary.csv``, ``identification.csv``, ``comparison.csv``, ``posterior.nc`` and
-    ``corner.pdf``/``.png`` into ``folder``.
-    """
-    post = result.posterior
-    write_csv(post.summary(result.hdi_prob), folder / "summary.csv")
-    write_csv(post.identification(), folder / "identification.csv")
-    write_csv(result.comparison[result.comparison_columns], folder / "comparison.csv")
-    post.save(folder / "posterior.nc")
-    fig = post.corner()
-    plots.save_figure(fig, folder / "corner", ("pdf", "png"), dpi=150)

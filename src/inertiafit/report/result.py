@@ -65,6 +65,9 @@ class Result:
     emg_traces : pandas.DataFrame
         The fast trials' EMG envelopes over their rest levels (columns
         :data:`~inertiafit.processing.study.EMG_TRACE_COLUMNS`); empty without EMG.
+    truths : dict of str to dict
+        A simulated study's true values per body and quantity (SI units; the demo's
+        ``truth.toml``), drawn beside the ideal bodies; empty for measured data.
     """
 
     name: str
@@ -85,6 +88,7 @@ class Result:
     emg_traces: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=EMG_TRACE_COLUMNS)
     )
+    truths: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def summary(self, hdi_prob: float | None = None) -> pd.DataFrame:
         """The posterior's summary; a living body's joint parameters as rows of that body.
@@ -171,6 +175,7 @@ def make_result(
     manifest: str = "",
     living: Mapping[str, pd.DataFrame] | None = None,
     emg_traces: pd.DataFrame | None = None,
+    truths: Mapping[str, Mapping[str, float]] | None = None,
 ) -> Result:
     """Assemble a :class:`Result` and its comparison table (nothing else is computed)."""
     ideals_ = {k: dict(v) for k, v in (ideals or {}).items()}
@@ -203,6 +208,7 @@ def make_result(
         emg_traces=emg_traces
         if emg_traces is not None
         else pd.DataFrame(columns=EMG_TRACE_COLUMNS),
+        truths={k: dict(v) for k, v in (truths or {}).items()},
     )
 
 

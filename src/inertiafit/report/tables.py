@@ -7,6 +7,7 @@ reading: four significant figures, intervals as ``median [lower, upper]``, units
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
@@ -16,6 +17,9 @@ from inertiafit.io.outputs import write_csv
 from inertiafit.physics import UNITS
 
 __all__ = [
+    "FAST_TRIAL_DISPLAY",
+    "OPTIONAL_TRIAL_DISPLAY",
+    "STATIC_TRIAL_DISPLAY",
     "comparison_display",
     "correlation_display",
     "fmt",
@@ -25,6 +29,8 @@ __all__ = [
     "summary_display",
     "to_latex",
     "to_markdown",
+    "trial_tables",
+    "tukey_display",
     "write_table",
 ]
 
@@ -147,7 +153,7 @@ def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
             "mean ± sd": [
                 mean_sd(m, s) for m, s in zip(summary["mean"], summary["sd"], strict=True)
             ],
-            "R-hat": summary["r_hat"].round(3),
+            "R-hat": ["" if math.isnan(v) else f"{v:.3f}" for v in summary["r_hat"]],
             "ESS bulk": summary["ess_bulk"]
             .round(0)
             .astype(
@@ -248,5 +254,112 @@ def speed_effect_display(effect: pd.DataFrame) -> pd.DataFrame:
             ],
             "ANOVA F": rows["F"],
             "p": rows["p"],
+        }
+    )
+
+
+def _pm(value: float, se: float, digits: int = 4) -> str:
+    """``value ± se``; the value alone without an SE; blank for NaN."""
+    if math.isnan(value):
+        return ""
+    if math.isnan(se):
+        return f"{value:.{digits}g}"
+    return f"{value:.{digits}g} ± {se:.2g}"
+
+
+def _get(row: pd.Series, column: str) -> float:
+    value = row.get(column, math.nan)
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _text(row: pd.Series, column: str) -> str:
+    value = row.get(column, "")
+    return "" if value is None or (isinstance(value, float) and math.isnan(value)) else str(value)
+
+
+#: The columns of a condition's table of fast trials in report.html: header (units in it) and
+#: how a row shows. A column of ``trials.csv`` to show is one more entry here.
+FAST_TRIAL_DISPLAY: list[tuple[str, Callable[[pd.Series], str]]] = [
+    ("file", lambda r: _text(r, "file")),
+    ("speed [°/s]", lambda r: number(_get(r, "speed"))),
+    ("I [kg m²] ± SE", lambda r: _pm(_get(r, "inertia"), _get(r, "inertia_se"))),
+    ("I, paper's frame mean [kg m²]", lambda r: number(_get(r, "inertia_frame_mean"))),
+    (
+        "window [s]",
+        lambda r: (
+            ""
+            if math.isnan(_get(r, "window_start"))
+            else f"{_get(r, 'window_start'):.3f}–{_get(r, 'window_end'):.3f}"
+        ),
+    ),
+    ("samples", lambda r: number(_get(r, "n_window"), 6)),
+    ("lag [ms] ± SE", lambda r: _pm(1000 * _get(r, "lag"), 1000 * _get(r, "lag_se"), 3)),
+    ("residual RMS [N m]", lambda r: number(_get(r, "residual_rms"), 3)),
+    ("flags", lambda r: _text(r, "flags")),
+]
+#: The same for a condition's quasi-static and rest trials.
+STATIC_TRIAL_DISPLAY: list[tuple[str, Callable[[pd.Series], str]]] = [
+    ("file", lambda r: _text(r, "file")),
+    ("kind", lambda r: _text(r, "kind")),
+    ("M_g [N m] ± SE", lambda r: _pm(_get(r, "gravity_moment"), _get(r, "gravity_moment_se"))),
+    ("phase [rad]", lambda r: number(_get(r, "gravity_phase"), 3)),
+    ("offset [N m]", lambda r: number(_get(r, "offset"), 3)),
+    ("samples", lambda r: number(_get(r, "n_window"), 6)),
+    ("residual RMS [N m]", lambda r: number(_get(r, "residual_rms"), 3)),
+    ("flags", lambda r: _text(r, "flags")),
+]
+#: Shown only when the table has the column (a living body's trials).
+OPTIONAL_TRIAL_DISPLAY: dict[str, tuple[str, Callable[[pd.Series], str]]] = {
+    "posture": ("posture", lambda r: _text(r, "posture")),
+    "damping": ("b [N m s/rad] ± SE", lambda r: _pm(_get(r, "damping"), _get(r, "damping_se"))),
+}
+
+
+def _display(rows: pd.DataFrame, spec: list[tuple[str, Callable[[pd.Series], str]]]):
+    extra = [OPTIONAL_TRIAL_DISPLAY[c] for c in OPTIONAL_TRIAL_DISPLAY if c in rows.columns]
+    columns = [*spec[:1], *extra, *spec[1:]]
+    return pd.DataFrame(
+        {head: [show(r) for _, r in rows.iterrows()] for head, show in columns},
+        columns=[head for head, _ in columns],
+    )
+
+
+def trial_tables(trials: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """``trials.csv`` for reading: per condition, its quasi-static/rest and its fast trials.
+
+    Each table has the columns that apply to its trials (:data:`STATIC_TRIAL_DISPLAY`,
+    :data:`FAST_TRIAL_DISPLAY`), units in the headers; a skipped trial keeps its row, with
+    the reason in ``flags``. Titles name the condition and the kind of trials.
+    """
+    out = []
+    for condition, rows in trials.groupby("condition", sort=False):
+        fast = rows[rows["kind"] == "fast"]
+        static = rows[rows["kind"] != "fast"]
+        if len(static):
+            kinds = " and ".join(dict.fromkeys(str(k) for k in static["kind"]))
+            out.append((f"{condition}: {kinds} trials", _display(static, STATIC_TRIAL_DISPLAY)))
+        if len(fast):
+            out.append((f"{condition}: fast trials", _display(fast, FAST_TRIAL_DISPLAY)))
+    return out
+
+
+def tukey_display(effect: pd.DataFrame) -> pd.DataFrame:
+    """The Tukey HSD pairs of a speed-effect table: difference of means, its CI and p."""
+    pairs = effect[effect["row"] == "pair"] if "row" in effect else effect.iloc[0:0]
+    return pd.DataFrame(
+        {
+            "condition": pairs["condition"].astype(str),
+            "speeds [°/s]": [
+                f"{a:g} vs {b:g}" for a, b in zip(pairs["speed"], pairs["speed_b"], strict=True)
+            ],
+            "difference of means [kg m²]": [f"{v:+.3g}" for v in pairs["mean_difference"]],
+            "95% CI [kg m²]": [
+                interval(lo, hi, 3)
+                for lo, hi in zip(pairs["ci_lower"], pairs["ci_upper"], strict=True)
+            ],
+            "p (Tukey HSD)": [f"{v:.3g}" for v in pairs["p_tukey"]],
         }
     )

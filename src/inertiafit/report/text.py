@@ -14,6 +14,7 @@ __all__ = [
     "diagnostics_text",
     "fit_comparison_text",
     "study_comparison_text",
+    "truth_comparison_text",
 ]
 
 #: Characters of a trial's note (its flags, or why it was refused) shown in
@@ -107,3 +108,36 @@ def diagnostics_text(table: pd.DataFrame) -> str:
         "  ".join([*(c.ljust(w) for c, w in zip(line, widths, strict=False)), line[-1]]).rstrip()
         for line in lines
     )
+
+
+def truth_comparison_text(result: Result) -> str:
+    """A simulated study's bodies: the truth beside the posterior, and whether the HDI holds it.
+
+    Empty when the result has no :attr:`~inertiafit.report.result.Result.truths`. The ideal
+    (textbook) bodies are another question (:func:`study_comparison_text`): a simulation's truth
+    may differ from them on purpose.
+    """
+    if not result.truths:
+        return ""
+    table = result.comparison.set_index(["body", "parameter"])
+    pct = f"{100 * result.hdi_prob:g}% HDI"
+    lines = [
+        (
+            f"{'body':<12}{'parameter':<28}{'truth':>10}{'posterior median':>18}  {pct:<24}"
+            f"{'error':>8}  covered"
+        )
+    ]
+    for body, values in result.truths.items():
+        for parameter, true in values.items():
+            if (body, parameter) not in table.index:
+                continue
+            r = table.loc[(body, parameter)]
+            name = f"{parameter} [{r.unit}]"
+            error = 100 * (r.posterior_median - true) / true
+            inside = r.hdi_lower <= true <= r.hdi_upper
+            lines.append(
+                f"{body:<12}{name:<28}{true:>10.4g}{r.posterior_median:>18.4g}  "
+                f"{interval(r.hdi_lower, r.hdi_upper):<24}{error:>+7.1f}%  "
+                + ("yes" if inside else "NO")
+            )
+    return "\n".join(lines) + "\n(truth: the values the trials were simulated with)"

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from inertiafit.physics import PARAMETERS, SYMBOLS
-from inertiafit.plotting.corner import corner_figure
+from inertiafit.plotting.corner import corner_figure, posterior_range
 from inertiafit.plotting.style import axis_label
 from inertiafit.report.plots.checks import check_body, check_parameters
 
@@ -25,8 +25,10 @@ def plot_joint_corner(
     *,
     parameters: Sequence[str] = PARAMETERS,
     truths: Mapping[str, Any] | None = None,
+    ideals: Mapping[str, Any] | None = None,
     bodies: Sequence[str] | None = None,
     quantiles: Sequence[float] = (0.16, 0.5, 0.84),
+    prior_box: bool | str = "band",
     fig: Figure | None = None,
     width="double",
     **corner_kwargs,
@@ -41,15 +43,19 @@ def plot_joint_corner(
     posterior : inertiafit.posterior.Posterior
         The fit.
     parameters : sequence of str
-        Quantities per body (names as :func:`plot_trace`). Axes of ``mass``, ``com_distance``
-        and ``radius_of_gyration`` span that body's prior box.
+        Quantities per body (names as :func:`plot_trace`).
     truths : mapping of str to mapping of str to float, optional
         Known values per body and parameter (SI units), e.g. ``{"weight": {"mass": 2.92}}``;
         a value may also be an object with ``as_dict()``, such as an ideal body.
+    ideals : mapping of str to mapping of str to float, optional
+        Ideal (textbook) values per body, drawn dashed in another colour than ``truths``.
     bodies : sequence of str, optional
         Bodies to include, in order; default all.
     quantiles : sequence of float
         Quantiles marked on the 1-D histograms.
+    prior_box : {"band", True, False}
+        As :meth:`~inertiafit.posterior.Posterior.corner`: axes zoomed to the posterior with
+        each prior box shaded (default), axes spanning the boxes, or no boxes.
     fig : matplotlib.figure.Figure, optional
         Figure to draw into (without a layout engine).
     width : {"single", "double"} or float
@@ -78,26 +84,24 @@ def plot_joint_corner(
     ranges: list[tuple[float, float]] = []
     boxes: list[tuple[float, float] | None] = []
     marks: list[float | None] = []
+    ideal_marks: list[float | None] = []
     for b in names:
         box = posterior.prior_box(b)
-        known = (truths or {}).get(b) or {}
-        if not isinstance(known, Mapping):  # an ideal body (inertiafit.shapes) and the like
-            known = known.as_dict()
+        known = _values((truths or {}).get(b))
+        ideal = _values((ideals or {}).get(b))
         for p in params:
             x = posterior.draws(b, p).ravel()
             columns.append(x)
-            # a long body name goes on its own line, or neighbouring labels overlap
-            labels.append(axis_label(p, b if len(b) <= 12 else f"{b}\n"))
+            # the body's name on a line of its own, or neighbouring labels run together
+            labels.append(axis_label(p, f"{b}\n"))
             titles.append(SYMBOLS[p])
-            if p in box:
-                ranges.append(box[p])
-                boxes.append(box[p])
-            else:
-                lo, hi = np.quantile(x, [0.001, 0.999])
-                ranges.append((float(lo - 0.1 * (hi - lo)), float(hi + 0.1 * (hi - lo))))
-                boxes.append(None)
+            edges = box[p] if prior_box and p in box else None
+            spanned = edges is not None and prior_box is True
+            ranges.append(edges if edges is not None and spanned else posterior_range(x, edges))
+            boxes.append(edges)
             priors.append(posterior.draws(b, p, "prior").ravel())
             marks.append(known.get(p))
+            ideal_marks.append(ideal.get(p))
     return corner_figure(
         columns,
         labels=labels,
@@ -106,9 +110,22 @@ def plot_joint_corner(
         boxes=boxes,
         priors=priors,
         truths=marks,
+        ideals=ideal_marks if ideals else None,
         quantiles=quantiles,
-        note="axes of $m$, $x$, $\\rho$ span the prior boxes; grey: prior",
+        note=(
+            "axes of $m$, $x$, $\\rho$ span the prior boxes; grey: prior"
+            if prior_box is True
+            else "shaded: prior box; grey: prior marginal"
+        ),
+        band=prior_box == "band",
         fig=fig,
         width=width,
         **corner_kwargs,
     )
+
+
+def _values(known: Any) -> Mapping[str, float]:
+    """Values by parameter; an ideal body (:mod:`inertiafit.shapes`) by its ``as_dict()``."""
+    if not known:
+        return {}
+    return known if isinstance(known, Mapping) else known.as_dict()

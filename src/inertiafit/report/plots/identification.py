@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from inertiafit.baseline import BaselineResult
     from inertiafit.posterior import Posterior
 
-__all__ = ["CURVE_PAIRS", "plot_identification_curve"]
+__all__ = ["CURVE_PAIRS", "curve_verdict", "plot_identification_curve"]
 
 #: Default panels of :func:`plot_identification_curve`.
 CURVE_PAIRS: tuple[tuple[str, str], ...] = (
@@ -185,10 +185,41 @@ def plot_identification_curve(
                 legend.setdefault(lab, h)
         fig.legend(list(legend.values()), list(legend), loc="outside lower center",
                    ncols=2 if w >= 5 else 1, markerscale=1.5)  # fmt: skip
-        data = f"$m x = M_g/g$ = {a_med:.3g} kg m, $I$ = {i_med:.3g} kg m$^2$"
+        data = rf"$m \cdot x = M_g/g$ = {a_med:.3g} kg m, $I$ = {i_med:.3g} kg m$^2$"
+        on_curve = curve_verdict(posterior, body)
         fig.suptitle(
-            f"{body}: data fix {data};\nthe prior box, not the data, picks the point on the curve"
+            f"{body}: data fix {data};\non the curve, {on_curve}"
             if w >= 5
-            else f"{body}\ndata fix {data};\nthe prior box picks the point on the curve"
+            else f"{body}\ndata fix {data};\non the curve, {on_curve}"
         )
     return fig
+
+
+def curve_verdict(posterior: Posterior, body: str) -> str:
+    """Who places the body on its curve, as the identification table says: m, x and rho.
+
+    ``"the data pin m and x; the prior box picks rho"``: the parameters grouped by their
+    ``identified_by`` (:meth:`~inertiafit.posterior.Posterior.identification`).
+    """
+    table = posterior.identification()
+    rows = table[(table["body"] == body) & table["parameter"].isin(PARAMETERS)]
+    who: dict[str, list[str]] = {}
+    for p, verdict in zip(rows["parameter"], rows["identified_by"], strict=True):
+        who.setdefault(str(verdict), []).append(_SYMBOL[p])
+    phrases = {
+        "data": "the data pin {}",
+        "data + prior": "data and prior box together set {}",
+        "prior": "the prior box picks {}",
+    }
+    return "; ".join(
+        phrases.get(verdict, verdict + ": {}").format(_and(names))
+        for verdict, names in sorted(who.items(), key=lambda kv: list(phrases).index(kv[0])
+                                     if kv[0] in phrases else 3)
+    )  # fmt: skip
+
+
+_SYMBOL = {"mass": "$m$", "com_distance": "$x$", "radius_of_gyration": r"$\rho$"}
+
+
+def _and(names: list[str]) -> str:
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]

@@ -66,8 +66,9 @@ def plot_fast_trials(
         ax_v.set_ylabel("velocity [°/s]")
         ax_a.set_ylabel("acceleration [°/s²]")
         ax_a.set_xlabel("time from window start [s]")
-        if speeds:
-            ax_v.legend(loc="lower right")
+        if speeds:  # beside the panels: inside, it covered the braking curves
+            fig.legend(*ax_v.get_legend_handles_labels(), loc="outside right upper",
+                       title="preset speed")  # fmt: skip
         if title:
             fig.suptitle(f"{title}: fast trials, shaded = detected uniform-acceleration windows")
     return fig
