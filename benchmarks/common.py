@@ -169,3 +169,32 @@ def hdi(draws, prob: float = 0.95) -> tuple[float, float]:
     k = math.floor(prob * x.size)
     i = int(np.argmin(x[k:] - x[: x.size - k]))
     return float(x[i]), float(x[i + k])
+
+
+def binomial_interval(k: int, n: int) -> tuple[float, float]:
+    """Clopper-Pearson 95 % interval of a share ``k / n`` (exact, never outside [0, 1])."""
+    from scipy import stats
+
+    lo = stats.beta.ppf(0.025, k, n - k + 1) if k else 0.0
+    hi = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
+    return float(lo), float(hi)
+
+
+def living_forearm_bodies(rng) -> tuple[dict, dict]:
+    """A living-forearm study's bodies: ``(truth, priors)`` drawn from ``rng``.
+
+    Nominal values that vary between studies (the attachment's mass and radius +-20 %, the
+    forearm's mass +-30 % and radius +-20 %), the truth drawn uniformly from the +-50 % box
+    around them, and the priors' nominal values (``simulate_living_study``'s ``bodies`` and
+    ``priors``).
+    """
+    nominal = {
+        "attachment": (2.91 * rng.uniform(0.8, 1.2), 0.13 * rng.uniform(0.8, 1.2), 0.225),
+        "forearm": (1.5 * rng.uniform(0.7, 1.3), 0.08 * rng.uniform(0.8, 1.2), 0.15),
+    }
+    truth = {b: tuple(v * rng.uniform(0.5, 1.5) for v in nom) for b, nom in nominal.items()}
+    priors = {
+        b: {"mass": v[0], "radius_of_gyration": v[1], "com_distance": v[2]}
+        for b, v in nominal.items()
+    }
+    return truth, priors

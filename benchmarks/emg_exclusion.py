@@ -35,7 +35,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from common import hdi, standalone, table
+from common import binomial_interval, hdi, living_forearm_bodies, standalone, table
 
 HDI = 0.95
 FAST_TRIALS = 5
@@ -71,15 +71,7 @@ def one_study(
     from inertiafit.simulate import EmgSimulation, simulate_living_study
 
     rng = np.random.default_rng([seed, 20])
-    nominal = {
-        "attachment": (2.91 * rng.uniform(0.8, 1.2), 0.13 * rng.uniform(0.8, 1.2), 0.225),
-        "forearm": (1.5 * rng.uniform(0.7, 1.3), 0.08 * rng.uniform(0.8, 1.2), 0.15),
-    }
-    truth = {b: tuple(v * rng.uniform(0.5, 1.5) for v in nom) for b, nom in nominal.items()}
-    priors = {
-        b: {"mass": v[0], "radius_of_gyration": v[1], "com_distance": v[2]}
-        for b, v in nominal.items()
-    }
+    truth, priors = living_forearm_bodies(rng)
     fast = [f"B_upright_180_{k + 1:02d}.csv" for k in range(FAST_TRIALS)]
     chosen = sorted(rng.choice(fast, size=reflexes, replace=False).tolist())
     true_i = float(inertia(*truth["forearm"]))
@@ -134,14 +126,6 @@ def one_study(
     return out
 
 
-def _binomial(k: int, n: int) -> tuple[float, float]:
-    from scipy import stats
-
-    lo = stats.beta.ppf(0.025, k, n - k + 1) if k else 0.0
-    hi = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
-    return float(lo), float(hi)
-
-
 def run(
     *, quick: bool = False, seed: int = 20261126, studies: int | None = None, reflexes: int = 1
 ) -> dict:
@@ -161,14 +145,14 @@ def run(
             "quantity": "recall (reflex trials excluded)",
             "value": hits / n_reflex,
             "count": f"{hits}/{n_reflex}",
-            "interval": "[{:.2f}, {:.2f}]".format(*_binomial(hits, n_reflex)),
+            "interval": "[{:.2f}, {:.2f}]".format(*binomial_interval(hits, n_reflex)),
             "target": ">= 0.90",
         },
         {
             "quantity": "false alarms (clean trials excluded)",
             "value": alarms / n_clean,
             "count": f"{alarms}/{n_clean}",
-            "interval": "[{:.2f}, {:.2f}]".format(*_binomial(alarms, n_clean)),
+            "interval": "[{:.2f}, {:.2f}]".format(*binomial_interval(alarms, n_clean)),
             "target": "<= 0.10",
         },
     ]
@@ -180,7 +164,7 @@ def run(
             {
                 "check": f"{label} the check",
                 "coverage": k / len(sub),
-                "interval": "[{:.2f}, {:.2f}]".format(*_binomial(k, len(sub))),
+                "interval": "[{:.2f}, {:.2f}]".format(*binomial_interval(k, len(sub))),
                 "z": float(np.mean([s["z"] for s in sub])),
                 "error": float(np.median([s["error"] for s in sub])),
                 "studies": len(sub),

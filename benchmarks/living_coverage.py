@@ -39,7 +39,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from common import hdi, standalone, table
+from common import binomial_interval, hdi, living_forearm_bodies, standalone, table
 
 HDI = 0.95
 DESIGNS = ("one", "two")
@@ -70,15 +70,7 @@ def one_study(design: str, seed: int, *, rigid_posterior: bool = True) -> dict:
     from inertiafit.simulate import rigid_view, simulate_living_study
 
     rng = np.random.default_rng([seed, 19])
-    nominal = {
-        "attachment": (2.91 * rng.uniform(0.8, 1.2), 0.13 * rng.uniform(0.8, 1.2), 0.225),
-        "forearm": (1.5 * rng.uniform(0.7, 1.3), 0.08 * rng.uniform(0.8, 1.2), 0.15),
-    }
-    truth = {b: tuple(v * rng.uniform(0.5, 1.5) for v in nom) for b, nom in nominal.items()}
-    priors = {
-        b: {"mass": v[0], "radius_of_gyration": v[1], "com_distance": v[2]}
-        for b, v in nominal.items()
-    }
+    truth, priors = living_forearm_bodies(rng)
     settings = SamplerSettings(progress=False)
     out: dict = {"design": design, "seed": seed}
     with tempfile.TemporaryDirectory() as tmp:
@@ -127,14 +119,6 @@ def one_study(design: str, seed: int, *, rigid_posterior: bool = True) -> dict:
     return out
 
 
-def _binomial(k: int, n: int) -> tuple[float, float]:
-    from scipy import stats
-
-    lo = stats.beta.ppf(0.025, k, n - k + 1) if k else 0.0
-    hi = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
-    return float(lo), float(hi)
-
-
 def run(*, quick: bool = False, seed: int = 20261125, studies: int | None = None) -> dict:
     n = studies or (8 if quick else 40)
     jobs = [(d, seed + i) for d in DESIGNS for i in range(n)]
@@ -146,7 +130,7 @@ def run(*, quick: bool = False, seed: int = 20261125, studies: int | None = None
         sub = [r for r in results if r["design"] == design]
         for q in ("I", "M_g"):
             k = sum(r[f"living {q} inside"] for r in sub)
-            lo, hi = _binomial(k, len(sub))
+            lo, hi = binomial_interval(k, len(sub))
             errors = np.array([r[f"rigid {q} error"] for r in sub if f"rigid {q} error" in r])
             rows.append(
                 {
