@@ -73,7 +73,7 @@ def test_run_writes_the_living_joint(living_run):
     provenance = json.loads(open_posterior(out / "posterior.nc").attrs["provenance"])
     assert provenance["passive"]["path"].endswith("passive/elbow.toml")
     assert len(provenance["passive"]["sha256"]) == 64
-    page = (out / "report.html").read_text()
+    page = (out / "report.html").read_text(encoding="utf-8")
     assert "Living joint" in page
     assert "decided by" in page
 

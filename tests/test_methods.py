@@ -86,7 +86,7 @@ def test_an_anthropometric_prior_cites_its_table(disk):
 
 
 def test_report_shows_priors_methods_and_folded_provenance(disk, tmp_path):
-    page = study_report(tmp_path / "report.html", disk, {}, 0.95).read_text()
+    page = study_report(tmp_path / "report.html", disk, {}, 0.95).read_text(encoding="utf-8")
     priors = page[page.index("<h2>Priors</h2>") : page.index("<h2>Comparison")]
     assert "<h3>disk-3kg</h3>" in priors
     assert "source: Son et al., Determination of inertial parameters" in priors

@@ -58,7 +58,7 @@ def report(tmp_path_factory):
 
 @pytest.mark.slow
 def test_every_figure_is_decoded_by_the_browser(report, tmp_path):
-    html = report.read_text()
+    html = report.read_text(encoding="utf-8")
     n_images = html.count("<img ")
     assert n_images >= 4
     dom = chromium(
@@ -132,7 +132,7 @@ def study_report(tmp_path_factory):
 def layout(report, tmp_path, width=1280):
     """What :data:`MEASURE` finds in ``report`` at ``width`` px: scroll width, tables, faults."""
     page = tmp_path / "measured.html"
-    page.write_text(report.read_text().replace("</body>", MEASURE + "</body>"))
+    page.write_text(report.read_text(encoding="utf-8").replace("</body>", MEASURE + "</body>"))
     dom = chromium(
         f"--window-size={width},900",
         "--virtual-time-budget=5000",

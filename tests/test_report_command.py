@@ -62,7 +62,7 @@ def test_run_writes_every_output(study_out):
     assert {"condition", "speed", "n", "mean", "sd", "F", "p"} <= set(effect.columns)
     post = open_posterior(study_out / "posterior.nc")
     assert post.bodies == ("attachment", "weight")
-    html = (study_out / "report.html").read_text()
+    html = (study_out / "report.html").read_text(encoding="utf-8")
     assert html.count("data:image/png;base64,") >= 10
     assert "http://" not in html
     assert "https://" not in html  # readable offline
@@ -94,7 +94,7 @@ def test_run_writes_tables_in_three_formats_and_the_paper_figures(study_out):
 
 def missing_figures(folder, records, ext="png"):
     """Records whose file is not in ``folder`` or whose image is not in its report.html."""
-    page = (folder / "report.html").read_text()
+    page = (folder / "report.html").read_text(encoding="utf-8")
     shown = set(re.findall(r"<img alt='([^']*)'", page))
     return [
         r.stem
@@ -108,7 +108,7 @@ def test_every_registered_figure_is_written_and_shown_in_report_html(study_out, 
     assert len(records) == 12
     assert len({r.stem for r in records}) == len(records)
     assert missing_figures(study_out, records) == []
-    page = (study_out / "report.html").read_text()
+    page = (study_out / "report.html").read_text(encoding="utf-8")
     assert page.count("data:image/png;base64,") == len(records)
     # in the order of the sections that show them
     order = [page.index(f"<img alt='{html.escape(r.caption)}'") for r in records]
@@ -138,7 +138,9 @@ def test_a_figure_registered_once_is_saved_and_embedded(study_out, tmp_path, mon
     outputs_module.write_outputs(folder, result, save_data=False, workers=1)
     records = with_extra(result)
     assert missing_figures(folder, records) == []
-    assert "an extra figure registered once" in (folder / "report.html").read_text()
+    assert "an extra figure registered once" in (folder / "report.html").read_text(
+        encoding="utf-8"
+    )
 
 
 def test_figures_drawn_in_worker_processes_are_the_same_files(study_out, tmp_path):
@@ -185,7 +187,7 @@ def test_report_redraws_without_sampling(study_out, tmp_path, capsys, monkeypatc
     assert (study_out / "posterior.nc").read_bytes() == nc
     summary = pd.read_csv(study_out / "summary.csv")
     assert (summary.hdi_prob == 0.8).all()
-    html = (study_out / "report.html").read_text()
+    html = (study_out / "report.html").read_text(encoding="utf-8")
     assert "80% HDI" in html
     assert "redrew" in capsys.readouterr().out
 
@@ -209,7 +211,7 @@ def test_report_redraws_from_saved_outputs_only(study_out, tmp_path, monkeypatch
         ]
         assert (moved / "trials.csv").read_bytes() == trials_csv  # data files are read only
         assert (moved / "traces.csv").read_bytes() == traces_csv
-        assert "Trial traces not drawn" not in (moved / "report.html").read_text()
+        assert "Trial traces not drawn" not in (moved / "report.html").read_text(encoding="utf-8")
         traces = pd.read_csv(moved / "traces.csv")
         assert traces.groupby("condition")["trial"].nunique().to_dict() == {
             "attachment": 6,
@@ -221,7 +223,7 @@ def test_report_redraws_from_saved_outputs_only(study_out, tmp_path, monkeypatch
             stale.unlink()
         assert main(["report", str(moved), "--formats", "png"]) == 0
         assert not list(moved.glob("fast-trials-*.png"))
-        assert "Trial traces not drawn" in (moved / "report.html").read_text()
+        assert "Trial traces not drawn" in (moved / "report.html").read_text(encoding="utf-8")
     finally:
         hidden.rename(trials_dir)
 
@@ -233,7 +235,7 @@ def test_report_without_png_files_still_embeds_every_figure(study_out, tmp_path,
     monkeypatch.setattr(outputs_module, "figure_records", lambda result: every(result)[::3])
     study_out = _copy(study_out, tmp_path)
     assert main(["report", str(study_out), "--formats", "pdf"]) == 0
-    html = (study_out / "report.html").read_text()
+    html = (study_out / "report.html").read_text(encoding="utf-8")
     figures = sorted(p.stem for p in study_out.glob("*.pdf"))
     assert len(figures) == 4
     assert html.count("data:image/png;base64,") == len(figures)
@@ -320,7 +322,7 @@ def test_run_writes_methods_with_the_protocol_as_run(study_out):
 
 
 def test_report_html_reads_at_a_glance(study_out):
-    page = (study_out / "report.html").read_text()
+    page = (study_out / "report.html").read_text(encoding="utf-8")
     trials = page[page.index("<h2>Trials</h2>") : page.index("<h2>Speed effect</h2>")]
     # one table per condition and kind of trial, units in the headers
     assert re.findall(r"<h3>([^<]*)</h3>", trials) == [

@@ -210,7 +210,7 @@ def test_skip_runs_the_study_to_the_end_with_its_inputs_on_record(
     assert list(observed["inertia_condition"].values).count("attachment") == 2
     assert observed.size == 5
 
-    html = (out / "report.html").read_text()
+    html = (out / "report.html").read_text(encoding="utf-8")
     assert "<h2>Skipped trials</h2>" in html
     assert html.index("Skipped trials") < html.index("<h2>Posterior</h2>")
     assert "1 of 8 trials could not be read or processed" in html
@@ -235,7 +235,7 @@ def test_skip_runs_the_study_to_the_end_with_its_inputs_on_record(
     shutil.rmtree(folder)
     (out / "report.html").unlink()
     assert main(["report", str(out), "--formats", "png"]) == 0
-    redrawn = (out / "report.html").read_text()
+    redrawn = (out / "report.html").read_text(encoding="utf-8")
     assert "<h2>Skipped trials</h2>" in redrawn
     assert all(digest in redrawn for digest in hashes)
 
