@@ -279,7 +279,7 @@ def test_bad_kind_speed_window_and_torque_sign(study_dir):
     expect(
         study_dir,
         BODIES + TRIALS.replace('kind = "quasi-static"', 'kind = "slow"', 1),
-        r"trials\[0\]\.kind: expected \"quasi-static\", \"fast\" or \"rest\", got 'slow'",
+        r"trials\[0\]\.kind: expected \"quasi-static\", \"fast\", \"rest\" or \"mvc\", got 'slow'",
     )
     expect(
         study_dir,

@@ -85,7 +85,8 @@ class EmgSettings:
     mvc_fraction : float
         With an MVC trial (``kind = "mvc"``, or ``emg_activity(mvc=...)``), a stretch must also
         exceed this fraction of the MVC's peak envelope: 0.02 (small involuntary responses of
-        healthy people are 2-3 % MVC, Finley et al. 2008). Unused without an MVC.
+        healthy people are 2-3 % MVC, Finley et al. 2008). A manifest that sets it without a
+        ``kind = "mvc"`` trial is refused (:func:`inertiafit.io.load_study`).
     on_activity : {"exclude", "flag", "stop"}
         What a trial with an active stretch does in a study (default ``"exclude"``).
     """

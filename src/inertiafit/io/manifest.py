@@ -79,6 +79,8 @@ Living segments
     [[trials]]
     posture = "seated"                  # (or in [defaults]) on every trial when postures exist
     kind = "rest"                       # a quiet hold: only with the living body mounted
+    [[trials]]
+    kind = "mvc"                        # a maximal voluntary contraction with EMG: MVC levels
 
 A living body (:attr:`BodySpec.living`) brings its joint's passive prior
 (:class:`PassivePrior`, :attr:`Study.passive`): the shipped file
@@ -159,8 +161,10 @@ __all__ = [
 ]
 
 #: Trial kinds: a slow sweep (gravity, and a living joint's passive moment), a fast isokinetic
-#: move (inertia) and a quiet hold at one angle of a living body (``"rest"``).
-KINDS = ("quasi-static", "fast", "rest")
+#: move (inertia), a quiet hold at one angle of a living body (``"rest"``) and a maximal
+#: voluntary contraction recorded for its EMG (``"mvc"``: the muscles' MVC levels, never
+#: evidence).
+KINDS = ("quasi-static", "fast", "rest", "mvc")
 #: What a trial that cannot be read or processed does to the study: stop it (the default) or be
 #: skipped, listed in ``trials.csv``, the warnings and ``report.html``.
 ON_TRIAL_ERROR = ("stop", "skip")
@@ -367,9 +371,11 @@ class TrialSpec:
         What is mounted: the bodies (also :attr:`bodies`, in the manifest's ``[bodies]``
         order), a body moved along the lever (``offset``) and known added masses
         (``added_mass``, sorted).
-    kind : {"quasi-static", "fast", "rest"}
-        Slow passive move (gives ``M_g``), fast isokinetic move (gives ``I``) or a quiet hold
-        of a living body at one angle (the gravity and passive elastic moment there).
+    kind : {"quasi-static", "fast", "rest", "mvc"}
+        Slow passive move (gives ``M_g``), fast isokinetic move (gives ``I``), a quiet hold
+        of a living body at one angle (the gravity and passive elastic moment there), or a
+        maximal voluntary contraction (its EMG gives each muscle's MVC level for the activity
+        check; its torque is not used).
     speed : float or None
         Nominal speed (deg/s); always set for fast trials, never for rest trials.
     format : str
@@ -882,6 +888,14 @@ def load_study(path: str | Path) -> Study:
                 'add one with kind = "quasi-static" (it gives the gravitational moment)',
             )
         rest = [t.index for t in members if t.kind == "rest"]
+        mvc = [t.index for t in members if t.kind == "mvc"]
+        if mvc and not any(t.kind == "quasi-static" for t in members):
+            raise _fail(
+                f"{where}: trials[{mvc[0]}].bodies",
+                f"an mvc trial is recorded in a mounting the study measures, but condition "
+                f"'{condition}' has no quasi-static trial; give it the bodies of the trials it "
+                "was recorded with",
+            )
         if rest and not any(t.kind == "quasi-static" for t in members):
             raise _fail(
                 f"{where}: trials[{rest[0]}].kind",
@@ -889,6 +903,7 @@ def load_study(path: str | Path) -> Study:
                 "quasi-static trial; rest trials alone do not do: add one with kind = "
                 '"quasi-static" (it gives the gravity and passive curve)',
             )
+    _check_mvc(trials, doc.get("emg"), where=where)
     return Study(
         name=name,
         path=path,
@@ -903,6 +918,37 @@ def load_study(path: str | Path) -> Study:
         postures=postures,
         emg=emg,
     )
+
+
+def _check_mvc(trials: list[TrialSpec], emg_table: object, *, where: str) -> None:
+    """MVC trials record every muscle the study checks; ``mvc_fraction`` needs one.
+
+    A muscle may have its MVC in any of the ``kind = "mvc"`` trials (one contraction per
+    muscle, or repeated attempts): its level is its largest peak over those that record it.
+    ``[emg] mvc_fraction`` without an MVC trial is refused rather than ignored: the threshold
+    it asks for cannot be made.
+    """
+    mvc = [t for t in trials if t.kind == "mvc"]
+    if not mvc:
+        if isinstance(emg_table, Mapping) and "mvc_fraction" in emg_table:
+            raise _fail(
+                f"{where}: emg.mvc_fraction",
+                'set, but no trial has kind = "mvc"; add the maximal voluntary contractions '
+                "(with EMG) it is a fraction of, or remove mvc_fraction",
+            )
+        return
+    recorded = {m for t in mvc for m in t.emg}
+    for t in trials:
+        if t.kind == "mvc":
+            continue
+        missing = [m for m in t.emg if m not in recorded]
+        if missing:
+            listed = ", ".join(f"trials[{x.index}]" for x in mvc[:3])
+            raise _fail(
+                f"{where}: trials[{mvc[0].index}].emg",
+                f"no mvc trial ({listed}) records EMG channel {missing[0]!r}, which "
+                f"trials[{t.index}] records; record every checked muscle in an mvc trial",
+            )
 
 
 #: Longest body name: it becomes part of file names (``corner-<body>.pdf``) and condition labels.
@@ -1282,7 +1328,9 @@ def _trial(
 
     kind = entry.get("kind")
     if kind not in KINDS:
-        raise _fail(f"{here}.kind", f'expected "quasi-static", "fast" or "rest", got {kind!r}')
+        raise _fail(
+            f"{here}.kind", f'expected "quasi-static", "fast", "rest" or "mvc", got {kind!r}'
+        )
     if kind == "rest" and (not living or living not in bodies):
         held = f"the living body '{living}'" if living else "a living body (none is)"
         raise _fail(
@@ -1293,6 +1341,8 @@ def _trial(
     speed = entry.get("speed")
     if speed is not None and kind == "rest":
         raise _fail(f"{here}.speed", "a rest trial holds one angle: remove its speed")
+    if speed is not None and kind == "mvc":
+        raise _fail(f"{here}.speed", "an mvc trial is a contraction, not a move: remove its speed")
     if speed is None and kind == "fast":
         raise _fail(f"{here}.speed", "missing; a fast trial needs its nominal speed in deg/s")
     if speed is not None:
@@ -1301,7 +1351,7 @@ def _trial(
     if window is not None and kind != "fast":
         raise _fail(
             f"{here}.window",
-            f"a {kind} trial has no acceleration window (its gravity fit uses the whole "
+            f"{'an' if kind == 'mvc' else 'a'} {kind} trial has no acceleration window (its gravity fit uses the whole "
             'sweep); remove it, or set kind = "fast" if this trial is one',
         )
     offset_body, offset = (
@@ -1339,6 +1389,12 @@ def _trial(
                     "(value = scale x volts + offset)",
                 )
     muscles, emg_from = _trial_emg(own, defaults, emg, here=here, where=where)
+    if kind == "mvc" and not muscles:
+        raise _fail(
+            f"{here}.emg",
+            "no EMG channels; an mvc trial is read for its EMG (each muscle's MVC level): give it "
+            "emg = [...] (or [defaults] emg, or [emg] columns)",
+        )
     if muscles and not carries_emg(fmt):
         raise _fail(
             emg_from,

@@ -25,7 +25,7 @@ Problems found in a trial travel as ``flags`` in what these functions return, ne
 
 from __future__ import annotations
 
-from inertiafit.processing.emg import emg_activity, emg_envelope
+from inertiafit.processing.emg import emg_activity, emg_envelope, mvc_levels
 from inertiafit.processing.filtering import lowpass, lowpass_array, sampling_rate
 from inertiafit.processing.gravity import (
     GravityFit,
@@ -57,6 +57,7 @@ __all__ = [
     "integrated_autocorrelation_time",
     "lowpass",
     "lowpass_array",
+    "mvc_levels",
     "process_study",
     "sampling_rate",
     "speed_effect",

@@ -22,7 +22,7 @@ over the muscles, in the windows checked.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -279,10 +279,20 @@ def _check(
     settings: EmgSettings,
     windows: Sequence[tuple[float, float]],
     onset: float = math.nan,
+    mvc: Mapping[str, float] | None = None,
 ) -> ActivityCheck:
     muscles = [str(m) for m in ds["emg"]["muscle"].values]
     levels = rest.of(muscles, source_of(ds))
-    table = emg_activity(ds, rest=levels, settings=settings)
+    peaks = None
+    if mvc is not None:
+        missing = [m for m in muscles if m not in mvc]
+        if missing:
+            raise InputError(
+                f"{source_of(ds)}: EMG channel {missing[0]!r} has no MVC level: no mvc trial "
+                "read records it"
+            )
+        peaks = {m: mvc[m] for m in muscles}
+    table = emg_activity(ds, rest=levels, mvc=peaks, settings=settings)
     env = _envelopes(ds, settings)
     return ActivityCheck(
         stretches=_overlapping(table, windows),
@@ -310,12 +320,15 @@ def check_fast(
     window: tuple[float, float],
     deceleration: tuple[float, float] | None,
     velocity: np.ndarray | None = None,
+    mvc: Mapping[str, float] | None = None,
 ) -> ActivityCheck:
     """A fast trial's check over its analysis windows and its reflex window.
 
     ``velocity`` is the filtered velocity the inertia was estimated from (default the
     recorded one): the motion's onset is where its speed first exceeds :data:`MOTION_ONSET`
-    of its peak.
+    of its peak. ``mvc``: each muscle's MVC level (V, :func:`~inertiafit.processing.emg.
+    mvc_levels`), when the study has ``kind = "mvc"`` trials: the threshold is then also at
+    least ``mvc_fraction`` of it.
     """
     time = np.asarray(ds["time"].values)
     v = ds["velocity"].values if velocity is None else velocity
@@ -323,10 +336,16 @@ def check_fast(
     windows = [window, (onset + REFLEX_WINDOW[0], onset + REFLEX_WINDOW[1])]
     if deceleration is not None:
         windows.append(deceleration)
-    return _check(ds, rest, settings, windows, onset)
+    return _check(ds, rest, settings, windows, onset, mvc)
 
 
-def check_sweep(ds: xr.Dataset, rest: RestLevels, settings: EmgSettings) -> ActivityCheck:
-    """A quasi-static sweep's check over its whole length."""
+def check_sweep(
+    ds: xr.Dataset,
+    rest: RestLevels,
+    settings: EmgSettings,
+    *,
+    mvc: Mapping[str, float] | None = None,
+) -> ActivityCheck:
+    """A quasi-static sweep's check over its whole length (``mvc`` as :func:`check_fast`)."""
     time = np.asarray(ds["time"].values)
-    return _check(ds, rest, settings, [(float(time[0]), float(time[-1]))])
+    return _check(ds, rest, settings, [(float(time[0]), float(time[-1]))], mvc=mvc)

@@ -48,6 +48,7 @@ __all__ = [
     "NYQUIST_FRACTION",
     "emg_activity",
     "emg_envelope",
+    "mvc_levels",
     "rest_level",
 ]
 
@@ -61,6 +62,8 @@ NYQUIST_FRACTION = 0.95
 
 #: What ``rest`` may be: a span (s), a rest Trial, or a level per muscle (checked at run time).
 Rest = Any
+#: What ``mvc`` may be: an MVC Trial, several, or each muscle's MVC level (checked at run time).
+Mvc = Any
 
 
 def _emg_of(trial: Any, muscles: Sequence[str] | None, what: str) -> xr.DataArray:
@@ -174,6 +177,87 @@ def rest_level(envelope: xr.DataArray, *, trim: bool = True) -> dict[str, tuple[
     }
 
 
+def mvc_levels(
+    mvc: xr.Dataset | Sequence[xr.Dataset],
+    *,
+    band: tuple[float, float] | None = None,
+    rms_window: float | None = None,
+    muscles: Sequence[str] | None = None,
+) -> dict[str, float]:
+    """Each muscle's MVC level (V): the peak of its RMS envelope over the MVC trials.
+
+    The one definition of an MVC level in inertiafit: :func:`emg_activity` (``mvc=``) and a
+    study's ``kind = "mvc"`` trials use it. With several trials (repeated attempts, or one
+    contraction per muscle), a muscle's level is its largest peak over the trials that record
+    it.
+
+    Parameters
+    ----------
+    mvc : Trial or sequence of Trial
+        Maximal voluntary contractions with EMG.
+    band, rms_window : optional
+        As :func:`emg_envelope`.
+    muscles : sequence of str, optional
+        The channels wanted (default: every channel of the trials). With several trials, each
+        muscle must be in at least one of them; with one, in it.
+
+    Returns
+    -------
+    dict of str to float
+        Muscle -> peak envelope (V), in the order of ``muscles`` (else of first appearance).
+
+    Raises
+    ------
+    InputError
+        An MVC without EMG; a muscle no MVC trial records (naming the trial); a peak of 0 V;
+        the problems of :func:`emg_envelope`.
+    """
+    trials = [mvc] if isinstance(mvc, xr.Dataset) else list(mvc)
+    if not trials:
+        raise InputError("mvc: expected an MVC Trial with EMG, got no trial")
+    peaks: dict[str, float] = {}
+    for trial in trials:
+        emg = _emg_of(trial, None, "the MVC trial")
+        have = [str(m) for m in emg["muscle"].values]
+        wanted = have if muscles is None else [m for m in muscles if m in have]
+        if len(trials) == 1 and muscles is not None:
+            wanted = list(muscles)  # one trial: a muscle missing is its error
+        if not wanted:
+            continue
+        env = emg_envelope(trial, band=band, rms_window=rms_window, muscles=wanted)
+        for m, row in zip(wanted, env.values, strict=True):
+            peaks[m] = max(peaks.get(m, 0.0), float(row.max()))
+    order = list(muscles) if muscles is not None else list(peaks)
+    for m in order:
+        if m not in peaks:
+            raise InputError(
+                f"{source_of(trials[0])}: no MVC trial records EMG channel {m!r}; record every "
+                "checked muscle in an MVC trial"
+            )
+        if not peaks[m] > 0:
+            raise InputError(f"{source_of(trials[0])}: the MVC level of EMG channel {m!r} is 0 V")
+    return {m: peaks[m] for m in order}
+
+
+def _mvc_from_mapping(mvc: Mapping[str, Any], muscles: list[str]) -> dict[str, float]:
+    """MVC levels given per muscle (V)."""
+    out = {}
+    for m in muscles:
+        if m not in mvc:
+            raise InputError(f"mvc: no level for muscle {m!r} (given: {', '.join(map(str, mvc))})")
+        value = mvc[m]
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not (math.isfinite(value) and value > 0)
+        ):
+            raise InputError(
+                f"mvc.{m}: expected the MVC's peak envelope in V (> 0), got {value!r}"
+            )
+        out[m] = float(value)
+    return out
+
+
 def _levels_from_mapping(
     rest: Mapping[str, Any], muscles: list[str], *, band: tuple[float, float], window: float
 ) -> dict[str, tuple[float, float]]:
@@ -236,7 +320,7 @@ def emg_activity(
     trial: xr.Dataset,
     rest: Rest,
     *,
-    mvc: xr.Dataset | None = None,
+    mvc: Mvc = None,
     muscles: Sequence[str] | None = None,
     band: tuple[float, float] | None = None,
     rms_window: float | None = None,
@@ -258,9 +342,11 @@ def emg_activity(
         ``{muscle: (mean, sd)}`` of the rest envelope in V, or ``{muscle: mean}`` (the SD of
         an RMS envelope of Gaussian noise then: ``mean / (2 sqrt(B T))``, B the band's width,
         T the window).
-    mvc : Trial, optional
-        A maximal voluntary contraction with the same EMG channels: a stretch must also
-        exceed ``mvc_fraction`` of its peak envelope.
+    mvc : Trial, sequence of Trial, or mapping, optional
+        Maximal voluntary contractions with the same EMG channels (:func:`mvc_levels`: each
+        muscle's peak envelope over them), or each muscle's MVC level ``{muscle: peak}`` in V.
+        The threshold becomes the larger of ``rest mean + k SD`` and ``mvc_fraction`` of the
+        MVC level.
     muscles : sequence of str, optional
         The channels to check (default all of the trial's).
     band, rms_window, threshold_sd, min_duration, mvc_fraction : optional
@@ -277,8 +363,8 @@ def emg_activity(
         threshold), ``peak_ratio`` (the stretch's peak envelope over the rest mean). Empty
         (the same columns) when every muscle stays quiet. ``attrs``: ``rest_level``,
         ``rest_sd`` and ``threshold`` (V per muscle), ``band`` (Hz, the edges used),
-        ``rms_window``, ``threshold_sd``, ``min_duration`` and ``mvc_fraction`` (``None``
-        without an MVC).
+        ``rms_window``, ``threshold_sd``, ``min_duration``, ``mvc_fraction`` and
+        ``mvc_level`` (V per muscle; both ``None`` without an MVC).
 
     Raises
     ------
@@ -346,10 +432,20 @@ def emg_activity(
             raise InputError(f"{source}: the rest level of EMG channel {muscle!r} is 0 V")
 
     thresholds = {m: levels[m][0] + k * levels[m][1] for m in names}
-    if mvc is not None:
-        mvc_env = emg_envelope(mvc, band=band, rms_window=window, muscles=names)
-        for m, row in zip(names, mvc_env.values, strict=True):
-            thresholds[m] = max(thresholds[m], fraction * float(row.max()))
+    peaks: dict[str, float] | None = None
+    if isinstance(mvc, xr.Dataset) or (
+        isinstance(mvc, Sequence) and not isinstance(mvc, str) and mvc
+    ):
+        peaks = mvc_levels(mvc, band=band, rms_window=window, muscles=names)
+    elif isinstance(mvc, Mapping):  # after Dataset, which is a Mapping too
+        peaks = _mvc_from_mapping(mvc, names)
+    elif mvc is not None:
+        raise InputError(
+            f"mvc: expected an MVC Trial, a list of them, or a level per muscle, got {mvc!r}"
+        )
+    if peaks is not None:
+        for m in names:
+            thresholds[m] = max(thresholds[m], fraction * peaks[m])
 
     rate = 1.0 / float(np.median(np.diff(time)))
     min_samples = max(1, math.ceil(duration * rate - 1e-9))
@@ -368,6 +464,7 @@ def emg_activity(
         "rms_window": window,
         "threshold_sd": k,
         "min_duration": duration,
-        "mvc_fraction": fraction if mvc is not None else None,
+        "mvc_fraction": fraction if peaks is not None else None,
+        "mvc_level": peaks,
     }
     return table

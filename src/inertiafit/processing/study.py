@@ -41,6 +41,7 @@ from inertiafit.processing.activity import (
     check_sweep,
     study_rest_levels,
 )
+from inertiafit.processing.emg import mvc_levels
 from inertiafit.processing.gravity import GravityFit, fit_gravity
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import lag_consistency_flags
@@ -135,6 +136,8 @@ LIVING_ROW_FLAG = (
 #: ``status`` of a trial whose values were used, of one skipped (``on_trial_error``), and of
 #: one excluded for muscle activity (``[emg] on_activity = "exclude"``).
 STATUS_OK, STATUS_SKIPPED, STATUS_EXCLUDED = "ok", "skipped", "excluded"
+#: ``status`` of a ``kind = "mvc"`` trial: read for its EMG's MVC levels, never evidence.
+STATUS_REFERENCE = "reference"
 #: ``status`` in ``diagnostics.csv`` of a trial that caused a refusal, and of one the study
 #: stopped before.
 STATUS_REFUSED, STATUS_NOT_REACHED = "refused", "not reached"
@@ -184,8 +187,10 @@ class ProcessedStudy:
     skipped : pandas.DataFrame
         A row per trial left out, columns :data:`TRIAL_COLUMNS` (and, with EMG, those of
         ``trials``): skipped (``on_trial_error = "skip"``; ``status`` ``"skipped"``, the reason
-        in ``flags``, no values) or excluded for muscle activity (``status`` ``"excluded"``,
-        the muscle, times and ratio in ``flags``, its values kept for the record).
+        in ``flags``, no values), excluded for muscle activity (``status`` ``"excluded"``,
+        the muscle, times and ratio in ``flags``, its values kept for the record), or an
+        MVC trial (``kind`` ``"mvc"``, ``status`` ``"reference"``: its muscles' MVC levels
+        in ``flags``, never evidence).
     provenance : list of dict
         Per trial in manifest order: ``file`` (relative to the manifest), ``path``,
         ``sha256`` (of the file as read; ``None`` if it could not be read), ``condition``,
@@ -489,6 +494,10 @@ def _process(
         if spec.kind == "rest":
             records.append(_record(spec, ds))
             rows[spec.index] = _rest_row(study, spec, ds, reader=run.reader_flags(spec))
+            continue
+        if spec.kind == "mvc":  # its EMG's MVC levels only (the manifest gives it EMG)
+            assert emg is not None
+            run.reference(spec, emg.mvc_row(spec, ds, reader=run.reader_flags(spec)))
             continue
         if spec.kind != "quasi-static":
             continue
@@ -879,6 +888,12 @@ class _Run:
         self.skipped[spec.index] = row
         self.provenance[spec.index]["status"] = STATUS_EXCLUDED
 
+    def reference(self, spec: TrialSpec, row: dict) -> None:
+        """Keep an MVC trial's row (``status`` ``"reference"``): listed, never evidence."""
+        row["status"] = STATUS_REFERENCE
+        self.skipped[spec.index] = row
+        self.provenance[spec.index]["status"] = STATUS_REFERENCE
+
     def reader_flags(self, spec: TrialSpec) -> tuple[str, ...]:
         return self.flags.get(spec.index, ())
 
@@ -1058,6 +1073,7 @@ class _EmgCheck:
     study: Study
     settings: EmgSettings
     rest: RestLevels
+    mvc: dict[str, float] | None = None  # each muscle's MVC level (V), with mvc trials
     peak: dict[int, float] = field(default_factory=dict)  # emg_peak_ratio by manifest index
     checks: list[tuple[TrialSpec, ActivityCheck]] = field(default_factory=list)  # fast trials
 
@@ -1069,7 +1085,9 @@ class _EmgCheck:
     def of(cls, study: Study, data: list, notes: list[str]) -> _EmgCheck | None:
         """The check, when a trial read has EMG; ``None`` otherwise.
 
-        Rest levels from the rest trials, else the quasi-static ones (said in ``notes``).
+        Rest levels from the rest trials, else the quasi-static ones (said in ``notes``);
+        with ``kind = "mvc"`` trials, each checked muscle's MVC level (:func:`mvc_levels`,
+        its largest peak envelope over them).
         """
         if not any("emg" in ds for _, ds in data):
             return None
@@ -1081,7 +1099,45 @@ class _EmgCheck:
             base_dir=str(study.base_dir),
         )
         notes.extend(f"{study.path}: {line}" for line in lines)
-        return cls(study, settings, rest)
+        mvc = None
+        listed = [t for t in study.trials if t.kind == "mvc"]
+        if listed:
+            read = [ds for spec, ds in data if spec.kind == "mvc"]
+            if not read:
+                names = ", ".join(_relative(t.file, study.base_dir) for t in listed[:3])
+                raise InputError(
+                    f"{study.path}: no mvc trial could be read ({names}, skipped); the "
+                    "activity check's %MVC threshold needs one"
+                )
+            checked = dict.fromkeys(
+                str(m)
+                for spec, ds in data
+                if spec.kind != "mvc" and "emg" in ds
+                for m in ds["emg"]["muscle"].values
+            )
+            mvc = mvc_levels(
+                read,
+                band=settings.band,
+                rms_window=settings.rms_window,
+                muscles=list(checked) or None,
+            )
+        return cls(study, settings, rest, mvc)
+
+    def mvc_row(self, spec: TrialSpec, ds: xr.Dataset, *, reader: tuple[str, ...]) -> dict:
+        """An MVC trial's row: each muscle's peak envelope, in V and over its rest level."""
+        own = mvc_levels(ds, band=self.settings.band, rms_window=self.settings.rms_window)
+        parts, ratios = [], []
+        for m, peak in own.items():
+            mean = self.rest.levels.get(m, (math.nan, math.nan))[0]
+            if math.isfinite(mean):
+                ratios.append(peak / mean)
+            shown = f" ({peak / mean:.0f} x rest)" if math.isfinite(mean) else ""
+            parts.append(f"{m} {peak * 1e3:.3g} mV{shown}")
+        self.peak[spec.index] = max(ratios, default=math.nan)
+        row = _row(self.study, spec, reader=reader)
+        text = "MVC reference (not evidence): peak envelope " + ", ".join(parts)
+        row["flags"] = "; ".join(filter(None, [text, row["flags"]]))
+        return row
 
     def summary(self, left: dict[int, dict]) -> list[str]:
         """One line counting the fast trials excluded for muscle activity (none: no line)."""
@@ -1144,6 +1200,7 @@ class _EmgCheck:
             window=(est.window_start, est.window_end),
             deceleration=deceleration,
             velocity=est.velocity,
+            mvc=self.mvc,
         )
         self.peak[spec.index] = check.peak_ratio
         self.checks.append((spec, check))
@@ -1156,7 +1213,7 @@ class _EmgCheck:
 
         With ``"exclude"``, the trial to fit has its active stretches cut out.
         """
-        check = check_sweep(ds, self.rest, self.settings)
+        check = check_sweep(ds, self.rest, self.settings, mvc=self.mvc)
         self.peak[spec.index] = check.peak_ratio
         if not check.active or self.action == "stop":
             return ds, (), check

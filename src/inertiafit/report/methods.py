@@ -180,7 +180,9 @@ def _protocol(result: Result) -> list[str]:
             parts.append(_speeds(fast))
         lines.append(f"'{label}' ({_and(list(mounted))}): {_and(parts) or 'no trials used'}")
     paras.append("Conditions: " + "; ".join(lines) + ".")
-    skipped = len(trials) - len(used)
+    # an MVC trial (status "reference") is read for its EMG only: not a trial left out
+    reference = int((trials["status"] == "reference").sum()) if "status" in trials else 0
+    skipped = len(trials) - len(used) - reference
     if skipped:
         paras.append(
             f"{plural(skipped, 'trial')} of {len(trials)} could not be read or processed and "
