@@ -5,8 +5,9 @@ channels (``docs/processing.md``, "The EMG check in a study"):
 
 - the **rest level** of each muscle (:func:`study_rest_levels`): from the study's
   ``kind = "rest"`` trials (the envelope's mean and SD over each, half a window trimmed at
-  each end, pooled), else from the quietest :data:`QUIET_SPAN` seconds of the quasi-static
-  trials (said in the warnings);
+  each end, pooled; a stretch active against the quietest :data:`QUIET_SPAN` seconds of the
+  rest trials left out), else from the quietest :data:`QUIET_SPAN` seconds of the
+  quasi-static trials (said in the warnings);
 - a **fast trial** (:func:`check_fast`) is checked over its analysis windows (the
   acceleration window; the deceleration window of a living condition) and a reflex window
   :data:`REFLEX_WINDOW` after its motion starts: an active stretch of
@@ -31,7 +32,7 @@ import xarray as xr
 
 from inertiafit.errors import InputError
 from inertiafit.io.emg import EmgSettings
-from inertiafit.processing.emg import emg_activity, emg_envelope, rest_level
+from inertiafit.processing.emg import emg_activity, emg_envelope
 from inertiafit.processing.filtering import source_of
 
 __all__ = [
@@ -167,6 +168,69 @@ def _envelopes(
     return emg_envelope(ds, band=settings.band, rms_window=settings.rms_window, muscles=muscles)
 
 
+def _quietest(
+    envelopes: Sequence[tuple[xr.Dataset, xr.DataArray]], settings: EmgSettings
+) -> dict[str, tuple[float, float, str, float, float]]:
+    """Per muscle, the :data:`QUIET_SPAN` seconds of lowest mean envelope over ``envelopes``.
+
+    ``(mean, sd, source, start, end)`` of that span (a trial shorter than it: its whole
+    length less half a window at each end).
+    """
+    quiet: dict[str, tuple[float, float, str, float, float]] = {}
+    for ds, env in envelopes:
+        time = np.asarray(env["time"].values)
+        rate = 1.0 / float(np.median(np.diff(time)))
+        half = round(settings.rms_window * rate / 2)
+        span = max(2, min(round(QUIET_SPAN * rate), len(time) - 2 * half))
+        for name, row in zip(env["muscle"].values, env.values, strict=True):
+            m = str(name)
+            inner = row[half : len(row) - half] if len(row) > 2 * half + span else row
+            offset = half if len(row) > 2 * half + span else 0
+            csum = np.concatenate(([0.0], np.cumsum(inner)))
+            means = (csum[span:] - csum[:-span]) / span
+            k = int(np.argmin(means))
+            piece = inner[k : k + span]
+            if m not in quiet or float(means[k]) < quiet[m][0]:
+                quiet[m] = (
+                    float(piece.mean()),
+                    float(piece.std()),
+                    source_of(ds),
+                    float(time[offset + k]),
+                    float(time[offset + k + span - 1]),
+                )
+    return quiet
+
+
+def _quiet_parts(
+    ds: xr.Dataset,
+    env: xr.DataArray,
+    baseline: dict[str, tuple[float, float, str, float, float]],
+    settings: EmgSettings,
+) -> tuple[dict[str, np.ndarray], pd.DataFrame]:
+    """A rest trial's envelope per muscle without its active stretches, and those stretches.
+
+    The trial is checked against ``baseline`` (the quietest span of the study's rest trials);
+    each active stretch is cut with :data:`SWEEP_MARGIN`, and half a window at each end.
+    """
+    levels = {m: baseline[m][:2] for m in (str(x) for x in env["muscle"].values)}
+    table = emg_activity(ds, rest=levels, settings=settings)
+    time = np.asarray(env["time"].values)
+    rate = 1.0 / float(np.median(np.diff(time)))
+    half = round(settings.rms_window * rate / 2)
+    ends = np.zeros(len(time), dtype=bool)
+    if len(time) > 4 * half + 2:
+        ends[:half] = ends[len(time) - half :] = True
+    before, after = SWEEP_MARGIN
+    out = {}
+    for name, row in zip(env["muscle"].values, env.values, strict=True):
+        m = str(name)
+        keep = ~ends
+        for r in table[table["muscle"] == m].itertuples():
+            keep &= ~((time >= r.start - before) & (time <= r.end + after))
+        out[m] = row[keep]
+    return out, table
+
+
 def study_rest_levels(
     rest_trials: Sequence[xr.Dataset],
     sweeps: Sequence[xr.Dataset],
@@ -186,66 +250,66 @@ def study_rest_levels(
     Returns
     -------
     RestLevels, list of str
-        The levels, and a line per muscle whose level comes from a quasi-static trial (for
-        the warnings).
+        The levels, and a line per muscle whose level comes from a quasi-static trial, and
+        per rest trial with an active stretch (for the warnings).
 
     Notes
     -----
-    From rest trials: each trial's envelope mean and SD (:func:`rest_level`), pooled as one
-    population (the mean of the means; the SD from the mean of the variances plus the
-    variance of the means). From quasi-static trials: the :data:`QUIET_SPAN` seconds of the
-    lowest mean envelope over all of them (the trial shorter than it: its whole length).
+    From rest trials: each is first checked against the quietest :data:`QUIET_SPAN` seconds
+    of all of them (a contraction during a "quiet" hold would raise the level and its SD,
+    and with them the threshold every trial is checked against); an active stretch is left
+    out (with :data:`SWEEP_MARGIN`), and the envelope's mean and SD over what remains of each
+    trial (half a window trimmed at each end) are pooled as one population (the mean of the
+    means; the SD from the mean of the variances plus the variance of the means). A rest
+    trial with nothing active gives exactly its whole-length level. From quasi-static trials
+    (a muscle no rest trial records, or whose rest trials are active throughout): the
+    :data:`QUIET_SPAN` seconds of the lowest mean envelope over all of them.
     """
     levels: dict[str, tuple[float, float]] = {}
     sources: dict[str, str] = {}
     notes: list[str] = []
+
+    def name_of(source: str) -> str:
+        return source.removeprefix(base_dir).lstrip("/")
+
+    rest_envs = [(ds, _envelopes(ds, settings)) for ds in rest_trials if "emg" in ds]
+    baseline = _quietest(rest_envs, settings)
     per_muscle: dict[str, list[tuple[float, float]]] = {}
-    for ds in rest_trials:
-        if "emg" not in ds:
-            continue
-        for m, level in rest_level(_envelopes(ds, settings)).items():
-            per_muscle.setdefault(m, []).append(level)
-    for m, values in per_muscle.items():
-        means = np.array([v[0] for v in values])
-        sds = np.array([v[1] for v in values])
-        levels[m] = (float(means.mean()), float(math.sqrt(np.mean(sds**2) + np.var(means))))
-        sources[m] = f"{len(values)} rest trial{'s' if len(values) > 1 else ''}"
-    quiet: dict[str, tuple[float, float, float, str, float, float]] = {}
-    for ds in sweeps:
-        if "emg" not in ds:
-            continue
-        env = _envelopes(ds, settings)
-        time = np.asarray(env["time"].values)
-        rate = 1.0 / float(np.median(np.diff(time)))
-        half = round(settings.rms_window * rate / 2)
-        span = max(2, min(round(QUIET_SPAN * rate), len(time) - 2 * half))
-        for name, row in zip(env["muscle"].values, env.values, strict=True):
-            m = str(name)
-            if m in levels:
-                continue
-            inner = row[half : len(row) - half] if len(row) > 2 * half + span else row
-            offset = half if len(row) > 2 * half + span else 0
-            csum = np.concatenate(([0.0], np.cumsum(inner)))
-            means = (csum[span:] - csum[:-span]) / span
-            k = int(np.argmin(means))
-            piece = inner[k : k + span]
-            candidate = (
-                float(piece.mean()),
-                float(piece.std()),
-                float(means[k]),
-                source_of(ds),
-                float(time[offset + k]),
-                float(time[offset + k + span - 1]),
+    rate_of = {id(ds): 1.0 / float(np.median(np.diff(ds["time"].values))) for ds, _ in rest_envs}
+    for ds, env in rest_envs:
+        parts, table = _quiet_parts(ds, env, baseline, settings)
+        enough = max(2, round(settings.rms_window * rate_of[id(ds)]))
+        for m, values in parts.items():
+            if len(values) >= enough:
+                per_muscle.setdefault(m, []).append((float(values.mean()), float(values.std())))
+        if not table.empty:
+            stretches = ", ".join(
+                f"{r.muscle} {r.start:.2f}-{r.end:.2f} s "
+                f"({r.peak_ratio:.1f} x the quietest {QUIET_SPAN:g} s of the rest trials)"
+                for r in table.itertuples()
             )
-            if m not in quiet or candidate[2] < quiet[m][2]:
-                quiet[m] = candidate
-    for m, (mean, sd, _, source, start, end) in quiet.items():
+            notes.append(
+                f"rest trial {name_of(source_of(ds))}: EMG active ({stretches}); left out of "
+                "the rest level"
+            )
+    for m, pairs in per_muscle.items():
+        means = np.array([v[0] for v in pairs])
+        sds = np.array([v[1] for v in pairs])
+        levels[m] = (float(means.mean()), float(math.sqrt(np.mean(sds**2) + np.var(means))))
+        sources[m] = f"{len(pairs)} rest trial{'s' if len(pairs) > 1 else ''}"
+    sweep_envs = [(ds, _envelopes(ds, settings)) for ds in sweeps if "emg" in ds]
+    quiet = {m: q for m, q in _quietest(sweep_envs, settings).items() if m not in levels}
+    for m, (mean, sd, source, start, end) in quiet.items():
         levels[m] = (mean, sd)
-        name = source.removeprefix(base_dir).lstrip("/")
-        sources[m] = f"the quietest {end - start:.3g} s of {name} ({start:.2f}-{end:.2f} s)"
-        notes.append(
-            f"EMG channel {m!r}: no rest trial records it; its rest level is {sources[m]}"
+        sources[m] = (
+            f"the quietest {end - start:.3g} s of {name_of(source)} ({start:.2f}-{end:.2f} s)"
         )
+        why = (
+            "its rest trials are active throughout"
+            if m in baseline
+            else "no rest trial records it"
+        )
+        notes.append(f"EMG channel {m!r}: {why}; its rest level is {sources[m]}")
     return RestLevels(levels, sources), notes
 
 

@@ -111,7 +111,8 @@ TRIAL_COLUMNS = [
 LIVING_TRIAL_COLUMNS = ["posture", "damping", "damping_se"]
 #: The column ``trials.csv`` gains when the study has EMG: the largest EMG envelope over its
 #: rest level, over the muscles, in the windows checked (a fast trial's analysis and reflex
-#: windows, a quasi-static sweep's length; empty for a trial without EMG).
+#: windows, a quasi-static sweep's or rest trial's length, an MVC trial's peak; empty for a
+#: trial without EMG).
 EMG_TRIAL_COLUMNS = ["emg_peak_ratio"]
 #: Columns of :attr:`ProcessedStudy.emg_traces` (``emg_traces.csv``): each fast trial's EMG
 #: envelope over its rest level around the windows checked, for figures. ``time`` is in s
@@ -492,8 +493,22 @@ def _process(
     records: list[StaticRecord] = []
     for spec, ds in data:
         if spec.kind == "rest":
-            records.append(_record(spec, ds))
-            rows[spec.index] = _rest_row(study, spec, ds, reader=run.reader_flags(spec))
+            held: xr.Dataset = ds
+            rest_flag: tuple[str, ...] = ()
+            if emg is not None and "emg" in ds:  # checked like a sweep: a hold can contract
+                checked = run.attempt(spec, functools.partial(emg.sweep, spec, ds))
+                if checked is None:
+                    continue
+                held, rest_flag, rest_check = checked
+                emg.stop(spec, rest_check)
+            row = _rest_row(study, spec, held, reader=run.reader_flags(spec))
+            if held.sizes["time"] < 2:  # active throughout: nothing of it is used
+                run.exclude(spec, row, rest_check.describe())
+                continue
+            row["flags"] = "; ".join(filter(None, [*rest_flag, row["flags"]]))
+            notes.extend(f"{spec.file}: {flag}" for flag in rest_flag)
+            records.append(_record(spec, held))
+            rows[spec.index] = row
             continue
         if spec.kind == "mvc":  # its EMG's MVC levels only (the manifest gives it EMG)
             assert emg is not None
