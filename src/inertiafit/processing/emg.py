@@ -14,9 +14,12 @@ where a muscle's EMG rises above its resting level, the way the EMG literature d
    compared 1-3 SD with visual onsets), and, when an MVC trial is given, also
    ``mvc_fraction`` of the MVC's peak envelope (2 %: small involuntary responses of healthy
    people are 2-3 % MVC, Finley et al. 2008);
-4. an **active stretch**: the envelope above the threshold for at least 50 ms
-   (``min_duration``; Hodges & Bui 1996 held the threshold 10-50 ms); stretches closer than
-   ``min_duration`` are one.
+4. an **active stretch**: the muscle active for at least 10 ms (``min_duration``, the short
+   end of the 10-50 ms Hodges & Bui 1996 compared), which is the envelope above the
+   threshold for the RMS window plus ``min_duration`` (60 ms with the defaults): the window
+   lifts the envelope for its own length around any event, however short, so one spike of
+   the noise (a sample at 5-6 SD) lifts a 50 ms RMS for exactly 50 ms and is not activity;
+   stretches closer than ``min_duration`` are one.
 
 Every default lives in :class:`inertiafit.io.emg.EmgSettings` (the manifest's ``[emg]``
 table); ``docs/processing.md`` cites them.
@@ -304,12 +307,12 @@ def _runs(above: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
-def _stretches(above: NDArray[np.bool_], min_samples: int) -> list[tuple[int, int]]:
-    """Runs at least ``min_samples`` long; kept runs closer than that are merged."""
-    kept = [(a, b) for a, b in _runs(above) if b - a + 1 >= min_samples]
+def _stretches(above: NDArray[np.bool_], min_run: int, min_gap: int) -> list[tuple[int, int]]:
+    """Runs at least ``min_run`` long; kept runs less than ``min_gap`` apart are merged."""
+    kept = [(a, b) for a, b in _runs(above) if b - a + 1 >= min_run]
     merged: list[tuple[int, int]] = []
     for a, b in kept:
-        if merged and a - merged[-1][1] - 1 < min_samples:
+        if merged and a - merged[-1][1] - 1 < min_gap:
             merged[-1] = (merged[-1][0], b)
         else:
             merged.append((a, b))
@@ -449,9 +452,13 @@ def emg_activity(
 
     rate = 1.0 / float(np.median(np.diff(time)))
     min_samples = max(1, math.ceil(duration * rate - 1e-9))
+    # the envelope's window lifts it for its own length around any event, however short (one
+    # spike lifts a 50 ms RMS for 50 ms): activity lasting `duration` keeps it up for the
+    # window plus `duration`
+    min_run = round(window * rate) + math.ceil(duration * rate - 1e-9)
     rows = []
     for m, env in zip(names, envelope.values, strict=True):
-        for a, b in _stretches(env > thresholds[m], min_samples):
+        for a, b in _stretches(env > thresholds[m], min_run, min_samples):
             peak = float(env[a : b + 1].max())
             rows.append((m, float(time[a]), float(time[b]), peak / levels[m][0]))
     table = pd.DataFrame(rows, columns=list(ACTIVITY_COLUMNS))
