@@ -180,13 +180,27 @@ def _protocol(result: Result) -> list[str]:
             parts.append(_speeds(fast))
         lines.append(f"'{label}' ({_and(list(mounted))}): {_and(parts) or 'no trials used'}")
     paras.append("Conditions: " + "; ".join(lines) + ".")
-    # an MVC trial (status "reference") is read for its EMG only: not a trial left out
-    reference = int((trials["status"] == "reference").sum()) if "status" in trials else 0
-    skipped = len(trials) - len(used) - reference
+    # an MVC trial (status "reference") is read for its EMG only: not a trial left out; one
+    # excluded for muscle activity was read and processed
+    status = trials["status"] if "status" in trials else pd.Series("ok", index=trials.index)
+    reference = int((status == "reference").sum())
+    excluded = int((status == "excluded").sum())
+    skipped = len(trials) - len(used) - reference - excluded
     if skipped:
         paras.append(
             f"{plural(skipped, 'trial')} of {len(trials)} could not be read or processed and "
             "were left out (listed in the report)."
+        )
+    if excluded:
+        paras.append(
+            f"{plural(excluded, 'trial')} of {len(trials)} showed muscle activity in the EMG "
+            "and were excluded from the analysis (listed in the report)."
+        )
+    if reference:
+        paras.append(
+            f"{plural(reference, 'maximal voluntary contraction')} gave each muscle's MVC "
+            "level (the peak of its EMG envelope); the activity threshold was at least a "
+            "fraction of it."
         )
     prov = _provenance_trials(result)
     rates = sorted({float(t["sampling_rate"]) for t in prov if t.get("sampling_rate")})
