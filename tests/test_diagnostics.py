@@ -34,6 +34,7 @@ from inertiafit.errors import InputError, StudyRefused
 from inertiafit.inference.evidence import check_trials_in_priors, study_priors
 from inertiafit.io import load_study, read_trial
 from inertiafit.io.outputs import MARKER
+from inertiafit.pipeline.batch import run_many
 from inertiafit.pipeline.study import DIAGNOSTICS, analyse_study
 from inertiafit.processing.inertia import InertiaEstimate
 from inertiafit.processing.plausibility import inertia_sign_checks
@@ -380,6 +381,29 @@ def test_a_refused_runs_table_is_replaced_by_the_next_ones(base, tmp_path):  # n
     scale_torque(second, FASTS, 20.0)
     _, table = refused_run(second, out, r".*its fast trials give I = .*")
     assert list(table.status) == ["ok", "refused", "refused", "refused"]
+
+
+def test_run_many_leaves_a_refused_studys_table_in_its_folder(base, tmp_path):  # noqa: F811
+    refused = copy_of(base, tmp_path / "bad")
+    cut_sweep(refused)
+    lines: list[str] = []
+    out = tmp_path / "batch"
+    result = run_many([refused], out, formats=("png",), echo=lines.append, workers=1)
+    assert result.failed == [str(refused)]
+    row = result.table.iloc[0]
+    assert row["status"] == "failed"
+    assert re.fullmatch(
+        r".*A_quasistatic\.csv: angle: a quasi-static sweep of 2\.5 deg.*", row["error"]
+    )
+    # the row names the folder that holds the table, and a line says where it is
+    assert row["folder"] == "study"
+    assert "[1/1] study: per-trial table in study/diagnostics.csv" in lines
+    assert sorted(p.name for p in (out / "study").iterdir()) == [MARKER, DIAGNOSTICS]
+    table = pd.read_csv(out / "study" / DIAGNOSTICS).set_index("file")
+    assert list(table.columns) == COLUMNS[1:]
+    assert table.loc[QS, "status"] == "refused"
+    assert "a quasi-static sweep of 2.5 deg" in table.loc[QS, "cause"]
+    assert (table.loc[FASTS, "status"] == "not reached").all()
 
 
 def test_out_is_checked_before_the_manifest_is_read(tmp_path):

@@ -5,7 +5,9 @@ own subfolder of ``out``, and writes two tables beside them:
 
 - ``batch.csv``: a row per study in the order given (:data:`BATCH_COLUMNS`): the manifest, its
   folder, ``ok`` or ``failed`` with the one-line error, seconds, convergence and the worst
-  R-hat and bulk ESS of its ``summary.csv``;
+  R-hat and bulk ESS of its ``summary.csv``; a study refused before its posterior leaves its
+  per-trial table (``diagnostics.csv``, as ``inertiafit run`` does) in its folder, which its
+  row then names (the folder of any other failed study is empty);
 - ``batch-summary.csv``: every ``summary.csv`` of the batch stacked, a ``folder`` column first.
 
 Where the studies run:
@@ -53,7 +55,7 @@ from inertiafit._checks import check_positive, check_probability, check_seed, ch
 from inertiafit.errors import InputError
 from inertiafit.io.manifest import load_study
 from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder
-from inertiafit.pipeline.study import run_study, study_inputs
+from inertiafit.pipeline.study import DIAGNOSTICS, run_study, study_inputs
 from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 
 #: Columns of ``batch.csv``.
@@ -115,7 +117,8 @@ def run_one(task: StudyTask) -> dict[str, Any]:
     dict
         ``status`` (``"ok"`` or ``"failed"``), ``error`` (one line), ``traceback`` (for an
         error other than an :class:`~inertiafit.errors.InputError`), ``seconds``,
-        ``converged``, ``warnings`` (list of str) and ``host``.
+        ``converged``, ``warnings`` (list of str), ``host`` and ``diagnostics`` (whether a
+        refused study left its per-trial table, ``diagnostics.csv``, in its folder).
     """
     t0 = time.perf_counter()
     record: dict[str, Any] = {
@@ -125,6 +128,7 @@ def run_one(task: StudyTask) -> dict[str, Any]:
         "converged": None,
         "warnings": [],
         "host": socket.gethostname(),
+        "diagnostics": False,
     }
     try:
         manifest = Path(task.manifest)
@@ -169,6 +173,8 @@ def run_one(task: StudyTask) -> dict[str, Any]:
         record.update(status="failed", error=_one_line(exc))
         if not isinstance(exc, InputError):
             record["traceback"] = traceback.format_exc()
+        # a study refused before its posterior wrote its per-trial table (run_study)
+        record["diagnostics"] = (Path(task.folder) / DIAGNOSTICS).is_file()
     record["seconds"] = time.perf_counter() - t0
     return record
 
@@ -442,7 +448,8 @@ def _check_inputs(
 def _row(manifest: Path, name: str, record: dict[str, Any], seed: int) -> dict[str, Any]:
     return {
         "manifest": str(manifest),
-        "folder": name if record["status"] == "ok" else "",
+        # a refused study's folder holds its per-trial table (diagnostics.csv)
+        "folder": name if record["status"] == "ok" or record.get("diagnostics") else "",
         "status": record["status"],
         "error": record["error"],
         "seconds": round(float(record["seconds"]), 3),
@@ -551,6 +558,8 @@ def run_many(
                         say(f"{head} warning: {w}")
                 else:
                     say(f"{head} failed: {record['error']}")
+                    if record.get("diagnostics"):
+                        say(f"{head} per-trial table in {name}/{DIAGNOSTICS}")
                     if record.get("traceback"):
                         (tmp / f"{name}-traceback.txt").write_text(record["traceback"])
 
