@@ -11,6 +11,7 @@ its row with the stretch in ``flags`` and its active samples cut out of the stat
 
 from __future__ import annotations
 
+import math
 import re
 import shutil
 from pathlib import Path
@@ -50,16 +51,20 @@ def clean(tmp_path_factory) -> Path:
 def contracted(clean, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("rest") / "contracted"
     shutil.copytree(clean.parent, out)
-    path = out / "data" / REST
+    _contract(out / "data" / REST, CONTRACTION)
+    return out / "study.toml"
+
+
+def _contract(path: Path, span: tuple[float, float]) -> None:
+    """Add a triceps contraction at ``RATIO`` x the rest RMS over ``span`` (s) of a trial."""
     data = pd.read_csv(path)
     t = data["time"].to_numpy()
     sos = signal.butter(4, [20, 450], btype="bandpass", fs=1000, output="sos")
     noise = signal.sosfilt(sos, np.random.default_rng(5).standard_normal(len(t) + 1000))[1000:]
     noise /= np.sqrt(np.mean(noise**2))
-    hold = (t >= CONTRACTION[0]) & (t <= CONTRACTION[1])
+    hold = (t >= span[0]) & (t <= span[1])
     data.loc[hold, "triceps"] += RATIO * 5e-6 * noise[hold]
     data.to_csv(path, index=False)
-    return out / "study.toml"
 
 
 @pytest.fixture(scope="module")
@@ -114,6 +119,22 @@ def test_the_reflex_is_still_found_and_the_rest_trial_flagged(both):
     rest = clean.all_trials[clean.all_trials["kind"] == "rest"]
     assert not rest["flags"].fillna("").str.contains("EMG active").any()
     assert rest["emg_peak_ratio"].between(1.0, 2.0).all()
+
+
+def test_a_rest_trial_active_throughout_is_excluded(clean, tmp_path):
+    out = tmp_path / "whole"
+    shutil.copytree(clean.parent, out)
+    _contract(out / "data" / REST, (-1.0, 99.0))
+    processed = process_study(out / "study.toml")
+    trials = processed.all_trials
+    row = trials[trials["file"] == f"data/{REST}"].iloc[0]
+    assert row["status"] == "excluded"
+    assert row["flags"].startswith("excluded: EMG active: triceps 0.000-")
+    assert math.isfinite(row["offset"])  # its values kept for the record
+    assert f"data/{REST}" not in set(processed.trials["file"])
+    # the other two rest trials still give the level: the reflex is found
+    status = dict(zip(trials["file"].str.removeprefix("data/"), trials["status"], strict=True))
+    assert {f for f, s in status.items() if s != "ok"} == {REFLEX, REST}
 
 
 def test_stop_refuses_a_study_whose_rest_trial_contracts(contracted, tmp_path):

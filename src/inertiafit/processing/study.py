@@ -501,10 +501,11 @@ def _process(
                     continue
                 held, rest_flag, rest_check = checked
                 emg.stop(spec, rest_check)
-            row = _rest_row(study, spec, held, reader=run.reader_flags(spec))
             if held.sizes["time"] < 2:  # active throughout: nothing of it is used
+                row = _rest_row(study, spec, ds, reader=run.reader_flags(spec))
                 run.exclude(spec, row, rest_check.describe())
                 continue
+            row = _rest_row(study, spec, held, reader=run.reader_flags(spec))
             row["flags"] = "; ".join(filter(None, [*rest_flag, row["flags"]]))
             notes.extend(f"{spec.file}: {flag}" for flag in rest_flag)
             records.append(_record(spec, held))
