@@ -271,3 +271,31 @@ def test_quasi_static_trials_can_have_their_own_noise(tmp_path):
     moving = qs["velocity"].iloc[len(qs) // 4 : 3 * len(qs) // 4]
     assert moving.max() - moving.min() < 1e-9  # exactly 1 deg/s: no ripple, no noise
     assert np.ptp(np.diff(fast["velocity"].to_numpy())) > 1.0  # the fast trial ripples
+
+
+def test_a_trial_file_holds_the_bytes_numpy_savetxt_writes(tmp_path):
+    # write_trial_csv formats the whole table at once; the file must be what np.savetxt with
+    # "%.10g" writes (the format the readers and the demo's trial files were checked against)
+    from inertiafit.simulate.files import write_trial_csv
+
+    trial = simulate_trial(inertia=0.25, gravity_moment=7.0, speed_deg_s=240.0, phi=0.1, rng=3)
+    rng = np.random.default_rng(5)
+    emg = {
+        "biceps": rng.normal(0.0, 1e-5, trial.sizes["time"]),
+        "triceps": np.zeros(trial.sizes["time"]),
+    }
+    path = tmp_path / "t.csv"
+    write_trial_csv(path, trial, angle_unit="deg", torque_unit="N*m", time_unit="s", emg=emg)
+    columns = np.column_stack(
+        [
+            trial["time"].values,
+            np.degrees(trial["angle"].values),
+            np.degrees(trial["velocity"].values),
+            trial["torque"].values,
+            *emg.values(),
+        ]
+    )
+    expected = tmp_path / "expected.csv"
+    header = "time,angle,velocity,torque,biceps,triceps"
+    np.savetxt(expected, columns, fmt="%.10g", delimiter=",", header=header, comments="")
+    assert path.read_bytes() == expected.read_bytes()
