@@ -9,6 +9,7 @@ other channels as they were, and its reflex torque is the model's.
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import shutil
@@ -277,3 +278,21 @@ def test_the_emg_figure_shades_the_excluded_trials_active_stretches(processed):
     assert len(biceps.patches) == 0
     assert len(triceps.patches) == 2  # one shaded stretch per excluded trial
     assert len(triceps.lines) == 5 + 2  # five trials, the threshold and the rest level
+
+
+def test_the_text_report_and_the_jupyter_display_count_the_excluded_trials(processed):
+    # the trials table analyse_study keeps in the posterior's inputs, on a small fitted posterior
+    from inertiafit.inference.fit import fit_body
+    from inertiafit.posterior import Posterior
+
+    post = fit_body("disk-3kg", inertia=[0.594], inertia_se=0.0105, gravity_moment=[12.8],
+                    gravity_moment_se=0.05, seed=1)  # fmt: skip
+    assert "trials" not in post.report()  # fitted from numbers: no trials, no line
+    tree = post.tree.copy()
+    trials = processed.all_trials.to_dict(orient="list")
+    tree.attrs["inputs"] = json.dumps({"trials": trials}, default=str)
+    study = Posterior(tree)
+    n = len(trials["status"])
+    line = f"{n} trials: {n - 2} in the evidence; 2 excluded for muscle activity (EMG)"
+    assert study.report().splitlines()[-1].startswith(line)
+    assert line in study._repr_html_()

@@ -1,14 +1,16 @@
 """Text and HTML display of a :class:`~inertiafit.posterior.Posterior`.
 
 :func:`text_report` is what ``print(post)`` and the command line show; :func:`html_table` is
-the Jupyter display. Both read the posterior's summary, identification and correlation tables
-and its "what pins what" lines only.
+the Jupyter display. Both read the posterior's summary, identification and correlation tables,
+its "what pins what" lines and, for a study, how many of its trials went into the evidence.
 """
 
 from __future__ import annotations
 
 import html
+import json
 import math
+from collections import Counter
 from typing import TYPE_CHECKING, Any
 
 from inertiafit.formatting import interval, plural
@@ -17,7 +19,14 @@ from inertiafit.physics import UNITS
 if TYPE_CHECKING:
     from inertiafit.posterior.core import Posterior
 
-__all__ = ["correlation_text", "html_table", "share_text", "table_rows", "text_report"]
+__all__ = [
+    "correlation_text",
+    "html_table",
+    "share_text",
+    "table_rows",
+    "text_report",
+    "trial_counts",
+]
 
 
 def table_rows(post: Posterior, hdi_prob: float) -> list[dict[str, Any]]:
@@ -52,6 +61,38 @@ def correlation_text(post: Posterior) -> list[str]:
         f"x-rho {r.corr_x_rho:+.2f}"
         for r in post.correlations().itertuples(index=False)
     ]
+
+
+def trial_counts(post: Posterior) -> str | None:
+    """One line counting a study's trials by what became of them; ``None`` without trials.
+
+    From the trials table a study's posterior keeps in its ``inputs`` (``inertiafit run``):
+    used (``ok``), excluded for muscle activity, skipped (``on_trial_error``), MVC references.
+    A posterior fitted from numbers has no trials and no line.
+    """
+    try:
+        trials = json.loads(post.tree.attrs.get("inputs", "{}")).get("trials") or {}
+    except (TypeError, ValueError, AttributeError):
+        return None
+    status = trials.get("status") if isinstance(trials, dict) else None
+    if not status:
+        return None
+    from inertiafit.processing.study import (
+        STATUS_EXCLUDED,
+        STATUS_OK,
+        STATUS_REFERENCE,
+        STATUS_SKIPPED,
+    )
+
+    counts = Counter(status)
+    parts = [f"{plural(len(status), 'trial')}: {counts[STATUS_OK]} in the evidence"]
+    if counts[STATUS_EXCLUDED]:
+        parts.append(f"{counts[STATUS_EXCLUDED]} excluded for muscle activity (EMG)")
+    if counts[STATUS_SKIPPED]:
+        parts.append(f"{counts[STATUS_SKIPPED]} skipped (could not be processed)")
+    if counts[STATUS_REFERENCE]:
+        parts.append(f"{plural(counts[STATUS_REFERENCE], 'MVC reference')}, not evidence")
+    return "; ".join(parts) + " (trials.csv says which and why)"
 
 
 def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
@@ -94,6 +135,9 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
     lines += [f"  {line}" for line in post.what_pins_what().values()]
     lines += correlation_text(post)
     lines.append(post.calibration_note())
+    counts = trial_counts(post)
+    if counts is not None:
+        lines.append(counts)
     return "\n".join(lines)
 
 
@@ -139,9 +183,11 @@ def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
     status = "converged" if post.converged else "<b>not converged</b>"
     pins = "".join(f"<li>{html.escape(line)}</li>" for line in post.what_pins_what().values())
     corr = "".join(f"<li>{html.escape(line)}</li>" for line in correlation_text(post))
+    counts = trial_counts(post)
+    trials = "" if counts is None else f"<p>{html.escape(counts)}</p>"
     return (
         f"<div><p><b>inertiafit posterior</b> ({status}, seed {post.tree.attrs.get('seed')})"
         f"</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
         f"<p>What pins what:</p><ul>{pins}</ul><ul>{corr}</ul>"
-        f"<p>{html.escape(post.calibration_note())}</p></div>"
+        f"<p>{html.escape(post.calibration_note())}</p>{trials}</div>"
     )
