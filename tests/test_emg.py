@@ -296,13 +296,14 @@ def test_manifest_refuses_emg_for_a_format_without(tmp_path):
 @pytest.mark.parametrize(
     ("table", "expected"),
     [
-        ("band = [450, 20]", r"emg.band: expected two increasing positive"),
-        ("band = [0, 450]", r"emg.band: expected two increasing positive"),
-        ("rms_window = 0", r"emg.rms_window: expected a window in \(0, 1\] s"),
-        ('rms_window = "50 ms"', r"emg.rms_window: expected a window in s"),
-        ("threshold_sd = -3", r"emg.threshold_sd: expected a positive number"),
-        ("min_duration = 2", r"emg.min_duration: expected a duration in \[0, 1\] s"),
-        ("mvc_fraction = 2", r"emg.mvc_fraction: expected a fraction in \(0, 1\]"),
+        ("band = [450, 20]", r"emg.band: expected two increasing frequencies \[high-pass, low"),
+        ("band = [0, 450]", r"emg.band\[0\]: must be positive \(Hz\), got 0"),
+        ("rms_window = 0", r"emg.rms_window: expected a number in \(0, 1\] s, got 0"),
+        ('rms_window = "50 ms"', r"emg.rms_window: expected a number in \(0, 1\] s, got '50"),
+        ("threshold_sd = -3", r"emg.threshold_sd: must be positive \(SDs of the rest envelope\)"),
+        ("min_duration = 2", r"emg.min_duration: expected a number in \[0, 1\] s, got 2"),
+        ("min_duration = -0.01", r"emg.min_duration: expected a number in \[0, 1\] s"),
+        ("mvc_fraction = 2", r"emg.mvc_fraction: expected a number in \(0, 1\] of the MVC"),
         ('on_activity = "ignore"', r'emg.on_activity: expected "exclude", "flag" or "stop"'),
         ('unit = "kV"', r"emg.unit: unknown EMG unit"),
         ("columns = 3", r"emg.columns: expected a list of EMG column names"),
@@ -421,6 +422,15 @@ def test_settings_from_a_study_are_used(bursts):
     assert emg_activity(bursts, rest=(0.2, 1.8), settings=settings).empty
 
 
+def test_the_ends_of_the_settings_ranges(bursts):
+    # min_duration may be 0 (the window alone), rms_window 1 s; mvc_fraction 1 is the MVC
+    assert not emg_activity(bursts, rest=(0, 1), min_duration=0.0).empty
+    with pytest.raises(InputError, match=r"^rms_window: expected a number in \(0, 1\] s"):
+        emg_activity(bursts, rest=(0, 1), rms_window=1.5)
+    with pytest.raises(InputError, match=r"^mvc_fraction: expected a number in \(0, 1\]"):
+        emg_activity(bursts, rest=(0, 1), mvc_fraction=0)
+
+
 @pytest.mark.parametrize(
     ("call", "expected"),
     [
@@ -430,7 +440,8 @@ def test_settings_from_a_study_are_used(bursts):
         (lambda b, q: emg_activity(b, rest={"biceps": 1e-6}), "rest: no level for muscle"),
         (lambda b, q: emg_activity(b, rest={"biceps": -1, "triceps": 1}), r"rest.biceps"),
         (lambda b, q: emg_activity(b, rest=(0, 1), muscles=["x"]), "no EMG channel 'x'"),
-        (lambda b, q: emg_activity(b, rest=(0, 1), threshold_sd=0), "threshold_sd"),
+        (lambda b, q: emg_activity(b, rest=(0, 1), threshold_sd=0), "^threshold_sd: must be pos"),
+        (lambda b, q: emg_activity(b, rest=(0, 1), band=(450, 20)), "^band: expected two incr"),
     ],
 )
 def test_activity_errors_are_one_line(bursts, call, expected):

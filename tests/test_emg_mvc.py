@@ -216,7 +216,7 @@ def test_mvc_fraction_without_an_mvc_trial_is_one_error(base, tmp_path):
 @pytest.mark.parametrize("value", ["0", "1.5", "-0.02"])
 def test_mvc_fraction_outside_0_1_is_one_error(base, tmp_path, value):
     message = _manifest_error(base, tmp_path / "s", MVC_TRIAL, extra=f"mvc_fraction = {value}")
-    assert ": emg.mvc_fraction: expected a fraction in (0, 1]" in message
+    assert ": emg.mvc_fraction: expected a number in (0, 1] of the MVC" in message
 
 
 def test_an_mvc_trial_with_a_speed_or_its_own_mounting_is_one_error(base, tmp_path):

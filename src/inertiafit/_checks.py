@@ -138,9 +138,15 @@ def check_interval(
     *,
     field: str | None = None,
     upper_closed: bool = False,
+    lower_closed: bool = False,
 ) -> float:
-    """``value`` as a float in ``(lower, upper)`` (``(lower, upper]`` with ``upper_closed``)."""
-    span = f"({lower:g}, {upper:g}{']' if upper_closed else ')'}" + (f" {unit}" if unit else "")
+    """``value`` as a float in ``(lower, upper)``.
+
+    ``upper_closed`` and ``lower_closed`` include the ends: ``(lower, upper]``, ``[lower, upper)``.
+    """
+    span = f"{'[' if lower_closed else '('}{lower:g}, {upper:g}{']' if upper_closed else ')'}" + (
+        f" {unit}" if unit else ""
+    )
     out = _as_float(value)
     if out is None:
         raise _fail(
@@ -150,7 +156,8 @@ def check_interval(
             f"expected a number in {span}, got {value!r}",
         )
     beyond = operator.gt if upper_closed else operator.ge
-    if not (math.isfinite(out) and out > lower and not beyond(out, upper)):
+    above = operator.ge if lower_closed else operator.gt
+    if not (math.isfinite(out) and above(out, lower) and not beyond(out, upper)):
         raise _fail(
             where,
             field,

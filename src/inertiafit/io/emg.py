@@ -19,10 +19,14 @@ Each default and its source is in ``docs/processing.md`` (the EMG activity check
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from inertiafit._checks import (
+    check_increasing_pair,
+    check_interval,
+    check_positive,
+)
 from inertiafit.errors import InputError
 from inertiafit.io.readers.validation import check_emg
 from inertiafit.io.units import emg_unit
@@ -32,6 +36,8 @@ __all__ = [
     "MAX_EMG_WINDOW",
     "ON_ACTIVITY",
     "EmgSettings",
+    "check_emg_band",
+    "check_emg_setting",
     "read_emg_settings",
 ]
 
@@ -104,13 +110,38 @@ class EmgSettings:
     on_activity: str = "exclude"
 
 
-def _number(table: Mapping[str, object], key: str, where: str, what: str) -> float | None:
-    if key not in table:
-        return None
-    value = table[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise InputError(f"{where}.{key}: expected {what}, got {value!r}")
-    return float(value)
+def check_emg_band(value: object, where: str) -> tuple[float, float]:
+    """The ``band`` setting checked: ``[high-pass, low-pass]`` in Hz, increasing, positive."""
+    low, high = check_increasing_pair(
+        value, where, "frequencies [high-pass, low-pass] in Hz such as [20, 450]"
+    )
+    check_positive(low, f"{where}[0]", "Hz")
+    return low, high
+
+
+def check_emg_setting(key: str, value: object, where: str) -> float:
+    """One scalar ``[emg]`` setting checked; ``where`` starts the message.
+
+    ``rms_window`` and ``min_duration`` (s), ``threshold_sd``, ``mvc_fraction``. With
+    :func:`check_emg_band`, the one check of these settings, for the manifest
+    (:func:`read_emg_settings`) and the keyword arguments of
+    :func:`inertiafit.processing.emg.emg_activity`.
+    """
+    if key == "threshold_sd":
+        return check_positive(value, where, "SDs of the rest envelope")
+    if key == "mvc_fraction":
+        return check_interval(value, where, 0.0, 1.0, "of the MVC", upper_closed=True)
+    if key in ("rms_window", "min_duration"):
+        return check_interval(
+            value,
+            where,
+            0.0,
+            MAX_EMG_WINDOW,
+            "s",
+            upper_closed=True,
+            lower_closed=key == "min_duration",
+        )
+    raise ValueError(f"check_emg_setting: not a scalar [emg] setting: {key!r}")
 
 
 def read_emg_settings(value: object, *, where: str) -> EmgSettings:
@@ -148,53 +179,10 @@ def read_emg_settings(value: object, *, where: str) -> EmgSettings:
     if "unit" in value:
         out["unit"] = emg_unit(value["unit"], where=f"{where}.unit")
     if "band" in value:
-        band = value["band"]
-        ok = (
-            isinstance(band, list | tuple)
-            and len(band) == 2
-            and all(
-                isinstance(b, int | float) and not isinstance(b, bool) and math.isfinite(b)
-                for b in band
-            )
-            and 0 < band[0] < band[1]
-        )
-        if not ok:
-            raise InputError(
-                f"{where}.band: expected two increasing positive frequencies [high-pass, "
-                f"low-pass] in Hz such as [20, 450], got {band!r}"
-            )
-        out["band"] = (float(band[0]), float(band[1]))
-    window = _number(value, "rms_window", where, "a window in s (0.05 = 50 ms)")
-    if window is not None:
-        if not 0 < window <= MAX_EMG_WINDOW:
-            raise InputError(
-                f"{where}.rms_window: expected a window in (0, {MAX_EMG_WINDOW:g}] s "
-                f"(0.05 = 50 ms), got {value['rms_window']!r}"
-            )
-        out["rms_window"] = window
-    k = _number(value, "threshold_sd", where, "a number of SDs (3)")
-    if k is not None:
-        if k <= 0:
-            raise InputError(
-                f"{where}.threshold_sd: expected a positive number of SDs (3), got {k!r}"
-            )
-        out["threshold_sd"] = k
-    duration = _number(value, "min_duration", where, "a duration in s (0.025 = 25 ms)")
-    if duration is not None:
-        if not 0 <= duration <= MAX_EMG_WINDOW:
-            raise InputError(
-                f"{where}.min_duration: expected a duration in [0, {MAX_EMG_WINDOW:g}] s "
-                f"(0.025 = 25 ms), got {value['min_duration']!r}"
-            )
-        out["min_duration"] = duration
-    fraction = _number(value, "mvc_fraction", where, "a fraction of the MVC (0.02 = 2 %)")
-    if fraction is not None:
-        if not 0 < fraction <= 1:
-            raise InputError(
-                f"{where}.mvc_fraction: expected a fraction in (0, 1] of the MVC's peak "
-                f"envelope (0.02 = 2 %), got {value['mvc_fraction']!r}"
-            )
-        out["mvc_fraction"] = fraction
+        out["band"] = check_emg_band(value["band"], f"{where}.band")
+    for key in ("rms_window", "threshold_sd", "min_duration", "mvc_fraction"):
+        if key in value:
+            out[key] = check_emg_setting(key, value[key], f"{where}.{key}")
     if "on_activity" in value:
         action = value["on_activity"]
         if action not in ON_ACTIVITY:

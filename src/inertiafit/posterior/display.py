@@ -84,7 +84,7 @@ def trial_counts(post: Posterior) -> str | None:
         STATUS_SKIPPED,
     )
 
-    counts = Counter(status)
+    counts: Counter[str] = Counter(status)
     parts = [f"{plural(len(status), 'trial')}: {counts[STATUS_OK]} in the evidence"]
     if counts[STATUS_EXCLUDED]:
         parts.append(f"{counts[STATUS_EXCLUDED]} excluded for muscle activity (EMG)")

@@ -42,7 +42,7 @@ from scipy import signal
 from scipy.ndimage import uniform_filter1d
 
 from inertiafit.errors import InputError
-from inertiafit.io.emg import EmgSettings
+from inertiafit.io.emg import EmgSettings, check_emg_band, check_emg_setting
 from inertiafit.processing.filtering import sampling_rate, source_of
 
 __all__ = [
@@ -125,8 +125,12 @@ def emg_envelope(
         window shorter than two samples, or a trial too short to filter.
     """
     defaults = EmgSettings()
-    lo, hi = band if band is not None else defaults.band
-    window = float(rms_window if rms_window is not None else defaults.rms_window)
+    lo, hi = check_emg_band(band, "band") if band is not None else defaults.band
+    window = (
+        check_emg_setting("rms_window", rms_window, "rms_window")
+        if rms_window is not None
+        else defaults.rms_window
+    )
     emg = _emg_of(trial, muscles, "the trial")
     source = source_of(trial)
     rate = sampling_rate(trial)
@@ -377,27 +381,19 @@ def emg_activity(
         setting out of range, and the problems of :func:`emg_envelope`.
     """
     base = settings if settings is not None else EmgSettings()
-    edges: Any = base.band if band is None else band
-    window = float(rms_window if rms_window is not None else base.rms_window)
-    k = float(threshold_sd if threshold_sd is not None else base.threshold_sd)
-    duration = float(min_duration if min_duration is not None else base.min_duration)
-    fraction = float(mvc_fraction if mvc_fraction is not None else base.mvc_fraction)
-    for name, value, ok in (
-        ("threshold_sd", k, k > 0),
-        ("min_duration", duration, duration >= 0),
-        ("mvc_fraction", fraction, 0 < fraction <= 1),
-        ("rms_window", window, window > 0),
-    ):
-        if not (math.isfinite(value) and ok):
-            raise InputError(f"{name}: out of range, got {value!r}")
-    if not (
-        isinstance(edges, Sequence)
-        and len(edges) == 2
-        and all(isinstance(v, int | float) and math.isfinite(v) for v in edges)
-        and 0 < edges[0] < edges[1]
-    ):
-        raise InputError(f"band: expected two increasing positive frequencies (Hz), got {band!r}")
-    band = (float(edges[0]), float(edges[1]))
+    given = {
+        "rms_window": rms_window,
+        "threshold_sd": threshold_sd,
+        "min_duration": min_duration,
+        "mvc_fraction": mvc_fraction,
+    }
+    checked = {
+        key: check_emg_setting(key, value, key) if value is not None else getattr(base, key)
+        for key, value in given.items()
+    }
+    band = check_emg_band(band, "band") if band is not None else base.band
+    window, k = checked["rms_window"], checked["threshold_sd"]
+    duration, fraction = checked["min_duration"], checked["mvc_fraction"]
 
     envelope = emg_envelope(trial, band=band, rms_window=window, muscles=muscles)
     names = [str(m) for m in envelope["muscle"].values]
