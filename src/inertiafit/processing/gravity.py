@@ -602,7 +602,10 @@ def sweep_noise(
     """
     y = np.asarray(torque, dtype=np.float64)
     white = white_level(y)
-    x = np.asarray(design, dtype=np.float64)
+    # an orthonormal basis of what the design spans (a living sweep's constant and
+    # hysteresis columns are one and the same there): the REML projects out the span
+    u, singular, _ = np.linalg.svd(np.asarray(design, dtype=np.float64), full_matrices=False)
+    x = u[:, singular > 1e-9 * singular[0]] if singular.size else u
     sd, tau = _drift_given_white(y - np.asarray(model, dtype=np.float64), x, white**2)
     return TorqueNoise(white, sd, tau / rate)
 
