@@ -5,8 +5,9 @@ quasi-static trial, :class:`~inertiafit.processing.gravity.GravityFit`) is subtr
 torque, ``y = tau - M_g sin(theta + phi) - c``, and two estimators are reported side by side:
 
 - ``inertia``: least squares of ``y = I alpha`` through the origin, ``sum(alpha y) /
-  sum(alpha^2)``, with a standard error corrected for the autocorrelation of the (filtered)
-  residuals;
+  sum(alpha^2)``, with a standard error from the channels' noise model (white noise and a
+  drift of the torque, white noise of the velocity) carried through the estimate's linear
+  algebra (:func:`trial_noise`; ``docs/processing.md``, "A fast trial's standard error");
 - ``inertia_frame_mean``: the paper's estimator, the mean over frames of ``y / alpha``.
 
 With the acceleration nearly uniform in the window the two agree closely; least squares weighs
@@ -107,7 +108,9 @@ class InertiaEstimate:
     inertia : float
         Least-squares estimate through the origin (kg m^2), about the joint.
     inertia_se : float
-        Its standard error (kg m^2), corrected for autocorrelated residuals.
+        Its standard error (kg m^2): ``sqrt(w' Sigma w)`` for the estimate's weights ``w`` on
+        the raw torque (through the filter, the window and the estimated lag) and the noise
+        model's covariance ``Sigma`` (:func:`trial_noise`), plus the velocity noise's part.
     inertia_frame_mean : float
         The paper's estimator: mean over the window of ``(tau - G) / alpha`` (kg m^2).
     window_start, window_end : float
@@ -239,6 +242,9 @@ def estimate_inertia(
         Refuse (or flag) a negative inertia here (default). ``False``: return it as it is, for
         a caller that judges a condition's fast trials together (a torque sign is advised only
         where they agree: :func:`~inertiafit.processing.plausibility.inertia_sign_checks`).
+    noise : TorqueNoise, optional
+        The torque's noise model for the standard errors; default :func:`trial_noise`: the
+        white level of this trial, the drift of ``gravity.noise`` (the condition's sweeps).
 
     Returns
     -------
