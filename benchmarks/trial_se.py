@@ -21,8 +21,8 @@ living estimates: truths from the prior, data from the simulator). Two negative 
 the same trials: the SEs computed with white noise only (the drift left out), and the rigid
 estimate of the living trials (damping read as inertia).
 
-Run:  .venv/bin/python benchmarks/trial_se.py [--quick] [--json FILE]
-      (60 trials per speed and kind, about a minute; --quick 20)
+Run:  .venv/bin/python benchmarks/trial_se.py [--quick] [--trials N] [--seed S] [--json FILE]
+      (60 trials per speed and kind, about 20 s; --quick 20)
 """
 
 from __future__ import annotations
@@ -217,8 +217,8 @@ def summarise(z: np.ndarray) -> dict:
     }
 
 
-def run(*, quick: bool = False, seed: int = 20261126) -> dict:
-    n = 20 if quick else 60
+def run(*, quick: bool = False, seed: int = 20261126, trials: int | None = None) -> dict:
+    n = trials or (20 if quick else 60)
     rows = []
     for speed in SPEEDS:
         for key, z in scores(speed, n, seed).items():
@@ -259,7 +259,13 @@ def run(*, quick: bool = False, seed: int = 20261126) -> dict:
 
 
 def main() -> None:
-    standalone(run, __doc__, seed=20261126, quick_help="20 trials per speed and kind")
+    standalone(
+        run,
+        __doc__,
+        seed=20261126,
+        quick_help="20 trials per speed and kind",
+        options={"--trials": {"type": int, "help": "trials per speed and kind (default 60)"}},
+    )
 
 
 if __name__ == "__main__":
