@@ -11,7 +11,8 @@ The steps, in the order a study runs them (``docs/processing.md`` explains each 
 4. :func:`estimate_inertia`: the inertia of a fast trial by least squares and by the paper's
    frame mean (:class:`InertiaEstimate`), after removing the lag of the torque channel behind
    the velocity (:func:`estimate_lag`, :class:`LagEstimate`, or fixed by the manifest), with
-   its sensitivity to the gravity model;
+   its sensitivity to the gravity model and standard errors from the torque's noise model
+   (:class:`TorqueNoise`: white noise and a drift);
 5. :func:`speed_effect`: per-speed summaries, one-way ANOVA and Tukey HSD per condition.
 
 :func:`emg_activity` finds the stretches of a trial where a muscle's EMG is active against its
@@ -29,6 +30,7 @@ from inertiafit.processing.emg import emg_activity, emg_envelope, mvc_levels
 from inertiafit.processing.filtering import lowpass, lowpass_array, sampling_rate
 from inertiafit.processing.gravity import (
     GravityFit,
+    TorqueNoise,
     effective_sample_size,
     fit_gravity,
     fit_gravity_arrays,
@@ -46,6 +48,7 @@ __all__ = [
     "InertiaEstimate",
     "LagEstimate",
     "ProcessedStudy",
+    "TorqueNoise",
     "effective_sample_size",
     "emg_activity",
     "emg_envelope",

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -72,14 +72,19 @@ __all__ = [
     "REFUSE_RANGE",
     "REFUSE_SPEED",
     "REST_ANGLE",
+    "TRIAL_NOISE_BATCHES",
     "GravityFit",
     "GravityRegression",
+    "TorqueNoise",
     "effective_sample_size",
     "fit_gravity",
     "fit_gravity_arrays",
     "gravity_regression",
     "integrated_autocorrelation_time",
     "moving_part",
+    "pooled_noise",
+    "sweep_noise",
+    "white_level",
 ]
 
 #: Median speed (deg/s) above which a quasi-static trial is flagged as not quasi-static.
@@ -114,8 +119,29 @@ FRICTION_PRIOR_NONE = 0.8
 FRICTION_FLAG = 0.99
 #: Standard errors resting on fewer degrees of freedom than this are flagged.
 MIN_SE_DOF = 8.0
+#: Batches of the noise model a fast trial's drift is fitted over (:func:`_drift_given_white`).
+TRIAL_NOISE_BATCHES = 5000
 #: The covariance is widened by at most this factor (for the noise model's uncertainty).
 _MAX_WIDEN = 3.0
+
+
+@dataclass(frozen=True)
+class TorqueNoise:
+    """A torque channel's noise: white noise plus a drift (a stationary AR(1) process).
+
+    Attributes
+    ----------
+    white_sd : float
+        Standard deviation of the white noise per sample (N m).
+    drift_sd : float
+        Standard deviation of the drift (N m); 0 for none.
+    drift_time : float
+        The drift's correlation time (s): its autocorrelation is ``exp(-lag / drift_time)``.
+    """
+
+    white_sd: float = 0.0
+    drift_sd: float = 0.0
+    drift_time: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -164,6 +190,10 @@ class GravityFit:
         Degrees of freedom of the standard errors (``inf`` when exact): the noise model's
         evidence. The covariance already holds the widening for it (about
         ``1 + 2 / se_dof``); do not put a Student-t on top.
+    noise : TorqueNoise or None
+        The noise model of the residuals (white plus drift, the drift's time in seconds),
+        fitted by REML; the condition's fast trials take their drift from it. ``None`` when
+        not fitted (a model given by hand).
     """
 
     gravity_moment: float
@@ -182,6 +212,7 @@ class GravityFit:
     coefficients: NDArray = field(default_factory=lambda: np.empty(0), compare=False, repr=False)
     covariance: NDArray = field(default_factory=lambda: np.empty(0), compare=False, repr=False)
     se_dof: float = math.inf
+    noise: TorqueNoise | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         moment, phase = self.gravity_moment, self.gravity_phase
@@ -267,6 +298,24 @@ def effective_sample_size(x: ArrayLike) -> float:
     """Number of independent samples a correlated series is worth, ``n / tau_int``."""
     x = np.asarray(x)
     return x.size / integrated_autocorrelation_time(x)
+
+
+#: Second differences of white noise have variance 6 sigma^2; the MAD of a Normal is 0.6745 SD.
+_SECOND_DIFFERENCE_SD = math.sqrt(6.0) * 0.6744897501960817
+
+
+def white_level(x: ArrayLike) -> float:
+    """Standard deviation of a channel's white noise, from its second differences (robust).
+
+    A smooth signal (the gravity curve, the motion's torque, a drift slower than a few
+    samples) has next to no second difference, white noise ``6 sigma^2`` of variance; the
+    corners of a fast trial's ramps (a step of the torque, a kink of the velocity) touch a
+    handful of samples, which the median absolute deviation ignores.
+    """
+    d2 = np.diff(np.asarray(x, dtype=np.float64), 2)
+    if d2.size < 3:
+        return 0.0
+    return float(np.median(np.abs(d2 - np.median(d2)))) / _SECOND_DIFFERENCE_SD
 
 
 # --- the noise model: white noise + AR(1) drift, REML on batch sums --------------------------
@@ -441,6 +490,10 @@ class GravityRegression:
         Standard deviation of ``friction`` over the models.
     friction_probability : float
         Posterior probability of a build-up.
+    trial_drift : (float, float)
+        The drift a fast trial of the condition takes (:func:`fast_trial_drift`): its
+        standard deviation (N m) and correlation time (samples), fitted with the white level
+        held at the sweep's own (:func:`white_level`).
     """
 
     coefficients: NDArray
@@ -456,6 +509,7 @@ class GravityRegression:
     friction_angle: float = 0.0
     friction_se: float = 0.0
     friction_probability: float = 0.0
+    trial_drift: tuple[float, float] = (0.0, 0.0)
 
 
 def moving_part(theta: NDArray) -> slice:
@@ -491,6 +545,80 @@ def _dof_of_log_variance(var_log: float) -> float:
         return math.inf
     return float(
         optimize.brentq(lambda nu: float(special.polygamma(1, nu / 2)) - var_log, 1e-3, 1e12)
+    )
+
+
+def _drift_given_white(residuals: NDArray, design: NDArray, white: float) -> tuple[float, float]:
+    """The drift a fast trial sees: ``(sd, correlation time in samples)``, white held fixed.
+
+    The sweep's own noise model (:func:`_fit_noise`) looks at frequencies below about 1 Hz,
+    where a drift of a few tenths of a second is as flat as white noise and only their sum
+    is decided: enough for the sweep's coefficients, not for a fast trial's window of a
+    tenth of a second, which sees white noise and a slow drift very differently. So the
+    drift is fitted again, by the same REML on batch sums, over :data:`TRIAL_NOISE_BATCHES`
+    batches (frequencies up to several Hz at 1 kHz over a 90 s sweep), with the white
+    variance held at the sample-to-sample noise's (:func:`white_level`).
+    """
+    n = residuals.size
+    if not white > 0 or n < 4 * 64:
+        return 0.0, 0.0
+    length = max(n // TRIAL_NOISE_BATCHES, 2)
+    batches = n // length
+    sums = residuals[: batches * length].reshape(batches, length).sum(axis=1)
+    reml = _Reml(sums, _design_means(design, length, batches), length)
+    lower = np.array([math.log(1e-12 * white), 0.0])
+    upper = np.array([math.log(1e6 * white), math.log(10.0 * n)])
+    fixed = math.log(white)
+
+    def negative(x: NDArray) -> float:
+        return -reml.loglik(np.array([fixed, *np.clip(x, lower, upper)]))[0]
+
+    # two starts, a small fast drift and a large slow one (on 14 simulated sweeps, default
+    # noise, a drift of 0.1 N m over 1 s and none, one start found the same optimum)
+    starts = [
+        np.array([math.log(k * white), math.log(t * length)]) for k, t in ((1e-3, 1), (0.1, 30))
+    ]
+    best = min(
+        (
+            optimize.minimize(
+                negative, np.clip(x0, lower, upper), method="Nelder-Mead", options={"xatol": 1e-3}
+            )
+            for x0 in starts
+        ),
+        key=lambda r: r.fun,
+    )
+    drift, tau = np.exp(np.clip(best.x, lower, upper))
+    return math.sqrt(float(drift)), float(tau)
+
+
+def sweep_noise(
+    torque: ArrayLike, model: ArrayLike, design: ArrayLike, rate: float
+) -> TorqueNoise:
+    """A sweep's torque noise as a fast trial sees it: white level and drift (seconds).
+
+    ``torque`` is the sweep's (its move), ``model`` the fitted model there and ``design``
+    its columns (what the fit absorbed, projected out by the REML): the white level from the
+    torque's second differences (:func:`white_level`), the drift by :func:`_drift_given_white`.
+    """
+    y = np.asarray(torque, dtype=np.float64)
+    white = white_level(y)
+    # an orthonormal basis of what the design spans (a living sweep's constant and
+    # hysteresis columns are one and the same there): the REML projects out the span
+    u, singular, _ = np.linalg.svd(np.asarray(design, dtype=np.float64), full_matrices=False)
+    x = u[:, singular > 1e-9 * singular[0]] if singular.size else u
+    sd, tau = _drift_given_white(y - np.asarray(model, dtype=np.float64), x, white**2)
+    return TorqueNoise(white, sd, tau / rate)
+
+
+def pooled_noise(models: Sequence[TorqueNoise | None]) -> TorqueNoise | None:
+    """Several sweeps' noise models as one: mean white and drift variances, mean time."""
+    known = [m for m in models if m is not None]
+    if not known:
+        return None
+    return TorqueNoise(
+        math.sqrt(float(np.mean([m.white_sd**2 for m in known]))),
+        math.sqrt(float(np.mean([m.drift_sd**2 for m in known]))),
+        float(np.mean([m.drift_time for m in known])),
     )
 
 
@@ -644,6 +772,7 @@ def gravity_regression(
         design[:stop_best, 3] = column_best
     theta_noise, reml, info, length, used = _fit_noise(residuals, design, NOISE_BATCHES)
     white = float(np.exp(theta_noise[0]))
+    trial_drift = _drift_given_white(residuals, design, white_level(y) ** 2)
 
     # The covariance of each model's coefficients under the noise model: the drift part from
     # the batch means, the white part exact (a steep build-up column changes within a batch).
@@ -731,6 +860,7 @@ def gravity_regression(
         friction_se=friction_se,
         friction_angle=float(angles[likeliest - 1]) if likeliest else 0.0,
         friction_probability=float(1.0 - weights[0]),
+        trial_drift=trial_drift,
     )
 
 
@@ -877,4 +1007,9 @@ def fit_gravity(
         coefficients=reg.coefficients.copy(),
         covariance=cov.copy(),
         se_dof=reg.se_dof,
+        noise=TorqueNoise(
+            white_level(torque[reg.fitted]) if noisy else 0.0,
+            reg.trial_drift[0] if noisy else 0.0,
+            reg.trial_drift[1] / sampling_rate(trial),
+        ),
     )

@@ -5,8 +5,9 @@ quasi-static trial, :class:`~inertiafit.processing.gravity.GravityFit`) is subtr
 torque, ``y = tau - M_g sin(theta + phi) - c``, and two estimators are reported side by side:
 
 - ``inertia``: least squares of ``y = I alpha`` through the origin, ``sum(alpha y) /
-  sum(alpha^2)``, with a standard error corrected for the autocorrelation of the (filtered)
-  residuals;
+  sum(alpha^2)``, with a standard error from the channels' noise model (white noise and a
+  drift of the torque, white noise of the velocity) carried through the estimate's linear
+  algebra (:func:`trial_noise`; ``docs/processing.md``, "A fast trial's standard error");
 - ``inertia_frame_mean``: the paper's estimator, the mean over frames of ``y / alpha``.
 
 With the acceleration nearly uniform in the window the two agree closely; least squares weighs
@@ -34,7 +35,8 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+from scipy import signal
 
 from inertiafit.errors import InputError
 from inertiafit.io.trial import apply_torque_sign
@@ -46,7 +48,12 @@ from inertiafit.processing.filtering import (
     sampling_rate,
     source_of,
 )
-from inertiafit.processing.gravity import GravityFit, integrated_autocorrelation_time
+from inertiafit.processing.gravity import (
+    GravityFit,
+    TorqueNoise,
+    integrated_autocorrelation_time,
+    white_level,
+)
 from inertiafit.processing.lag import LAG_BOUNDS, advance, estimate_lag
 from inertiafit.processing.living import StaticCurve
 from inertiafit.processing.window import LEVEL, MIN_SPEED_CHANGE, TOLERANCE, find_window_arrays
@@ -60,6 +67,7 @@ __all__ = [
     "gravity_coefficients",
     "saturated_run",
     "torque_sign_hint",
+    "trial_noise",
 ]
 
 #: Identical samples at a channel's largest magnitude that count as saturation (clipping).
@@ -100,7 +108,9 @@ class InertiaEstimate:
     inertia : float
         Least-squares estimate through the origin (kg m^2), about the joint.
     inertia_se : float
-        Its standard error (kg m^2), corrected for autocorrelated residuals.
+        Its standard error (kg m^2): ``sqrt(w' Sigma w)`` for the estimate's weights ``w`` on
+        the raw torque (through the filter, the window and the estimated lag) and the noise
+        model's covariance ``Sigma`` (:func:`trial_noise`), plus the velocity noise's part.
     inertia_frame_mean : float
         The paper's estimator: mean over the window of ``(tau - G) / alpha`` (kg m^2).
     window_start, window_end : float
@@ -199,6 +209,7 @@ def estimate_inertia(
     lag: float | None = None,
     lag_bounds: Sequence[float] = LAG_BOUNDS,
     refuse_negative: bool = True,
+    noise: TorqueNoise | None = None,
 ) -> InertiaEstimate:
     """Estimate the moment of inertia from a fast trial.
 
@@ -231,6 +242,9 @@ def estimate_inertia(
         Refuse (or flag) a negative inertia here (default). ``False``: return it as it is, for
         a caller that judges a condition's fast trials together (a torque sign is advised only
         where they agree: :func:`~inertiafit.processing.plausibility.inertia_sign_checks`).
+    noise : TorqueNoise, optional
+        The torque's noise model for the standard errors; default :func:`trial_noise`: the
+        white level of this trial, the drift of ``gravity.noise`` (the condition's sweeps).
 
     Returns
     -------
@@ -293,6 +307,7 @@ def estimate_inertia(
     gravity_f = sum((c * term for c, term in zip(coefficients, terms, strict=True)), start=0.0)
     flags: list[str] = []
     lag_sensitivity: tuple[float, ...] = (0.0,) * len(terms)  # d lag / d coefficients
+    lag_weights, lag_first = np.empty(0), 0  # d lag / d torque_f, from sample lag_first
     if fixed is None:
         found = estimate_lag(
             time,
@@ -307,6 +322,7 @@ def estimate_inertia(
         lag_value, lag_se, lag_source = found.lag, found.lag_se, "estimated"
         flags.extend(found.flags)
         lag_sensitivity = found.sensitivity
+        lag_weights, lag_first = found.weights, found.first
     else:
         lag_value, lag_se, lag_source = fixed, 0.0, "manifest"
     shifted = advance(torque_f, lag_value, rate)
@@ -327,13 +343,37 @@ def estimate_inertia(
         damped = _with_damping(
             time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sensitivity, source
         )
-        value, se, frame_mean, sensitivity, residuals, extra = damped
+        value, solve, rows, frame_mean, sensitivity, residuals, extra = damped
         n = residuals.size
         sl = slice(win.start_index, win.stop_index)
+        slopes = np.array([value, extra["damping"]])
     else:
-        value, se, frame_mean, sensitivity, residuals, n, sl = _through_origin(
+        value, solve, rows, frame_mean, sensitivity, residuals, n, sl = _through_origin(
             time, net_f, shifted, alpha_f, win, terms, lag_sensitivity
         )
+        slopes = np.array([value])
+    # The estimates as linear functions of the filtered torque on every sample: directly
+    # through the window rows, and through the estimated lag.
+    laid = np.zeros((solve.shape[0], time.size))
+    laid[:, rows] = solve
+    if lag_weights.size:
+        d_fit_d_lag = solve @ np.gradient(shifted, time)[rows]
+        laid[:, lag_first : lag_first + lag_weights.size] += np.outer(d_fit_d_lag, lag_weights)
+    cov = _noise_covariance(
+        laid,
+        time,
+        rate,
+        slopes,
+        trial_noise(raw_torque, gravity, noise),
+        white_level(raw_velocity),
+        cutoff=cutoff,
+        order=order,
+    )
+    cov = _with_misfit(cov, solve, residuals, win.stop_index - win.start_index)
+    se = math.sqrt(float(cov[0, 0]))
+    if living:
+        extra["damping_se"] = math.sqrt(float(cov[1, 1]))
+        extra["inertia_damping_cov"] = float(cov[0, 1])
     if value < 0 and refuse_negative:
         if value + NEGATIVE_SE * se < 0:
             raise InputError(
@@ -379,7 +419,8 @@ def estimate_inertia(
 def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
     """A rigid condition: least squares of ``y = I alpha`` in the acceleration window.
 
-    Returns ``(inertia, se, frame_mean, sensitivity, residuals, n, window slice)``.
+    Returns ``(inertia, solve, rows, frame_mean, sensitivity, residuals, n, window slice)``:
+    the estimate is ``solve @ net_f[rows]``.
     """
     sl = slice(win.start_index, win.stop_index)
     y = net_f[sl]
@@ -388,9 +429,6 @@ def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
     value = float(alpha @ y) / sxx
     residuals = y - value * alpha
     n = residuals.size
-    sigma2 = float(residuals @ residuals) / max(n - 1, 1)
-    tau = integrated_autocorrelation_time(residuals)
-    se = math.sqrt(sigma2 * tau / sxx)
     frame_mean = float(np.mean(y / alpha))
     # dI/d(A, B, C): directly through the model subtracted, and through the estimated lag
     # (dI/dL is the window's regression of the advanced torque's time derivative).
@@ -399,7 +437,8 @@ def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
         float(-(alpha @ term[sl]) / sxx + d_inertia_d_lag * d_lag)
         for term, d_lag in zip(terms, lag_sensitivity, strict=True)
     )
-    return value, se, frame_mean, sensitivity, residuals, n, sl
+    solve = (alpha / sxx)[None, :]
+    return value, solve, np.arange(sl.start, sl.stop), frame_mean, sensitivity, residuals, n, sl
 
 
 def deceleration_window(time, velocity_f, alpha_f, *, source, speed_deg_s=None):
@@ -453,13 +492,6 @@ def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sen
     gram_inv = np.linalg.inv(design.T @ design)
     coef = gram_inv @ (design.T @ y)
     residuals = y - design @ coef
-    n = residuals.size
-    sigma2 = float(residuals @ residuals) / max(n - 3, 1)
-    tau = max(
-        integrated_autocorrelation_time(residuals[: win.stop_index - win.start_index]),
-        integrated_autocorrelation_time(residuals[win.stop_index - win.start_index :]),
-    )
-    cov = sigma2 * tau * gram_inv
     value, damping = float(coef[0]), float(coef[1])
     sl = slice(win.start_index, win.stop_index)
     frame_mean = float(np.mean((net_f[sl] - damping * velocity_f[sl]) / alpha_f[sl]))
@@ -475,13 +507,101 @@ def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sen
     sensitivity = sensitivities[0]
     extra = {
         "damping": damping,
-        "damping_se": math.sqrt(float(cov[1, 1])),
-        "inertia_damping_cov": float(cov[0, 1]),
         "deceleration_start": float(time[start]),
         "deceleration_end": float(time[stop - 1]),
         "damping_sensitivity": sensitivities[1],
     }
-    return value, math.sqrt(float(cov[0, 0])), frame_mean, sensitivity, residuals, extra
+    return value, solve[:2], rows, frame_mean, sensitivity, residuals, extra
+
+
+def _with_misfit(cov: NDArray, solve: NDArray, residuals: NDArray, first: int) -> NDArray:
+    """The noise model's covariance; the residuals' own where the channel has no noise.
+
+    A recording whose torque has no sample-to-sample noise (a noise-free simulation, a
+    channel smoothed at the source) gives the noise model nothing (its variances a millionth
+    of the residuals' or less): the covariance is then
+    what the window's residuals say, their variance corrected for its autocorrelation (each
+    window's integrated autocorrelation time) times ``solve solve'``. That is not used
+    otherwise: a drift leaves no trace in a window's residuals, and a tenth of a second of
+    filtered noise shows too short an autocorrelation (the SEs came out 1.5-2.7 times too
+    small, ``benchmarks/trial_se.py``).
+    """
+    p = solve.shape[0] + (1 if residuals.size > first else 0)  # a living fit's c_t too
+    sigma2 = float(residuals @ residuals) / max(residuals.size - p, 1)
+    parts = [residuals[:first], residuals[first:]] if residuals.size > first else [residuals]
+    tau = max(integrated_autocorrelation_time(part) for part in parts)
+    shown = sigma2 * tau * (solve @ solve.T)
+    # "no noise": the model's variances a millionth of the residuals' or less (rounding)
+    return cov if np.all(np.diag(cov) > 1e-6 * np.diag(shown)) else shown
+
+
+def _ar1_quadratic(w: NDArray, rho: float) -> NDArray:
+    """``W R W'`` for the rows of ``w``, ``R[i, j] = rho^|i - j|`` (an AR(1)'s correlation).
+
+    ``R w = f + b - w`` with ``f`` the forward recursion ``f_i = w_i + rho f_(i-1)`` and
+    ``b`` the backward one: linear in the samples.
+    """
+    forward = signal.lfilter([1.0], [1.0, -rho], w, axis=-1)
+    return 2.0 * (w @ forward.T) - w @ w.T
+
+
+def trial_noise(
+    torque: ArrayLike, gravity: GravityFit | StaticCurve, noise: TorqueNoise | None = None
+) -> TorqueNoise:
+    """The torque noise a fast trial's standard errors are computed with.
+
+    ``noise`` when given. Else the white level of the trial itself (:func:`white_level` of
+    its raw torque: thousands of samples fix it to a few per cent) and the drift of the
+    condition's quasi-static noise model (``gravity.noise``, fitted by REML over a sweep a
+    hundred times longer than the drift's correlation time; none when the model has none).
+    A fast trial cannot measure its own drift: over its acceleration window the drift is a
+    constant, which reads as inertia and leaves the residuals alone, and the whole trial
+    holds only a few of the drift's correlation times under a white noise ten times larger.
+    """
+    if noise is not None:
+        return noise
+    white = white_level(torque)
+    static = gravity.noise
+    if static is None:
+        return TorqueNoise(white)
+    return TorqueNoise(white, static.drift_sd, static.drift_time)
+
+
+def _noise_covariance(
+    laid: NDArray,
+    time: NDArray,
+    rate: float,
+    slopes: NDArray,
+    noise: TorqueNoise,
+    velocity_sd: float,
+    *,
+    cutoff: float,
+    order: int,
+) -> NDArray:
+    """Covariance of the window estimates from the channels' noise, ``W Sigma W'``.
+
+    The estimates are ``laid @ y`` to first order, with ``y`` the filtered torque (the
+    window's least squares, and the estimated lag's response): linear in the raw torque,
+    with weights ``W = F' laid'`` (``F`` the zero-phase low-pass). Inside a trial, away from
+    its ends, ``F`` is a symmetric convolution, so ``F' = F``: the weights are the
+    low-passed rows of ``laid`` (an advance by the lag moves them, and leaves a stationary
+    noise's covariance as it is). The torque's noise is white plus an AR(1) drift
+    (:class:`TorqueNoise`). The velocity's white noise enters through the design's columns:
+    the estimates move by ``-solve @ (dX theta)``, ``dX`` the filtered noise of the
+    acceleration (``D F`` of the raw velocity's noise, ``D`` the derivative, ``D' = -D``)
+    and of the filtered velocity, times their coefficients (``slopes``: ``I`` and ``b``).
+    """
+    weights = lowpass_rows(laid, rate, cutoff=cutoff, order=order)
+    cov = noise.white_sd**2 * (weights @ weights.T)
+    if noise.drift_sd > 0 and noise.drift_time > 0:
+        rho = math.exp(-1.0 / (rate * noise.drift_time))
+        cov += noise.drift_sd**2 * _ar1_quadratic(weights, rho)
+    if velocity_sd > 0 and np.any(slopes):
+        inertia, damping = float(slopes[0]), float(slopes[1]) if slopes.size > 1 else 0.0
+        # F D = D F inside the trial: the derivative of the low-passed weights
+        moved = np.stack([inertia * derivative(w, time) - damping * w for w in weights])
+        cov += velocity_sd**2 * (moved @ moved.T)
+    return 0.5 * (cov + cov.T)
 
 
 def gravity_coefficients(gravity: GravityFit) -> tuple[float, float, float]:

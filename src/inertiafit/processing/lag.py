@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -92,6 +92,12 @@ class LagEstimate:
         ``d lag / d c_j`` (s per unit) for the model terms ``terms`` given to
         :func:`estimate_lag`, whose coefficients ``c_j`` the subtracted gravity model holds:
         how the estimate moves with an error of that model. 0 when not estimated.
+    weights : ndarray
+        ``d lag / d y`` for the filtered torque ``y`` on the samples fitted (from
+        ``start``; empty when not estimated): the estimate is linear in the torque's noise
+        to first order, and a fast trial's standard errors carry it through the lag.
+    first : int
+        Index of the first sample fitted.
     """
 
     lag: float
@@ -102,6 +108,8 @@ class LagEstimate:
     residual_rms: float
     flags: tuple[str, ...] = ()
     sensitivity: tuple[float, ...] = ()
+    weights: NDArray = field(default_factory=lambda: np.empty(0), repr=False, compare=False)
+    first: int = 0
 
 
 class _Shifter:
@@ -339,6 +347,8 @@ def estimate_lag(
         residual_rms=float(np.sqrt(np.mean(r**2))),
         flags=tuple(flags),
         sensitivity=sensitivity,
+        weights=-jac / curvature,  # d lag / d y: the first-order condition J' r = 0
+        first=int(lo),
     )
 
 

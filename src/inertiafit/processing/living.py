@@ -61,8 +61,11 @@ from inertiafit.io.manifest import PassivePrior, Posture
 from inertiafit.passive import literature_curve
 from inertiafit.processing.gravity import (
     GravityFit,
+    TorqueNoise,
     integrated_autocorrelation_time,
     moving_part,
+    pooled_noise,
+    sweep_noise,
 )
 from inertiafit.stats import inverse_variance_mean, shared_error
 
@@ -186,6 +189,7 @@ class StaticRecord:
     posture: str
     kind: str
     source: str
+    rate: float = 0.0  # Hz; 0: unknown (no noise model for the condition's fast trials)
 
 
 def _blocks(x: NDArray, size: int) -> NDArray:
@@ -247,6 +251,11 @@ class StaticCurve:
             angle, self.condition, self.posture, self.direction, velocity=velocity
         )
 
+    @property
+    def noise(self) -> TorqueNoise | None:
+        """The condition's torque noise model (its sweeps'), if known."""
+        return self.statics.noise.get(self.condition)
+
 
 @dataclass(frozen=True)
 class LivingStatics:
@@ -274,6 +283,10 @@ class LivingStatics:
     converged : bool
         Whether the rotations and the noise weights settled within the iterations allowed
         (a study says so when they did not).
+    noise : dict of str to TorqueNoise
+        Each condition's torque noise (white plus drift), for its fast trials' standard
+        errors; set by :func:`~inertiafit.processing.study.process_study` from the
+        condition's sweeps (empty: none known).
     """
 
     names: tuple[str, ...]
@@ -286,6 +299,7 @@ class LivingStatics:
     residual_rms: dict[str, float] = field(default_factory=dict)
     angle_range: tuple[float, float] = (0.0, 0.0)
     converged: bool = True
+    noise: dict[str, TorqueNoise] = field(default_factory=dict)
 
     def index(self, name: str) -> int:
         """Position of a coefficient."""
@@ -757,6 +771,12 @@ def fit_statics(
     # the final precision at the converged point (rotation columns at the fitted angles)
     precision = gram
     covariance = np.linalg.inv(precision)
+    noise = {
+        c: _condition_noise(
+            [p for p in prepared if p.record.condition == c], names, geometry, basis, coef
+        )
+        for c in conditions
+    }
     angles = np.concatenate([p.theta for p in prepared if p.record.kind != "rest"])
     return LivingStatics(
         names=names,
@@ -769,7 +789,39 @@ def fit_statics(
         residual_rms=rms,
         angle_range=(float(angles.min()), float(angles.max())),
         converged=bool(converged),
+        noise={c: v for c, v in noise.items() if v is not None},
     )
+
+
+def _condition_noise(
+    prepared: Sequence[_Prepared],
+    names: tuple[str, ...],
+    geometry: Mapping[str, PostureGeometry],
+    basis: PassiveBasis,
+    coef: NDArray,
+) -> TorqueNoise | None:
+    """A condition's torque noise from the residuals of its sweeps under the joint fit.
+
+    Each sweep's (:func:`~inertiafit.processing.gravity.sweep_noise`, on its raw samples),
+    pooled (:func:`~inertiafit.processing.gravity.pooled_noise`); ``None`` when no sweep
+    knows its sampling rate.
+    """
+    found = []
+    for prep in prepared:
+        record = prep.record
+        if record.kind != "quasi-static" or not record.rate > 0:
+            continue
+        theta = np.asarray(record.angle, float)
+        part = moving_part(theta)
+        theta, y = theta[part], np.asarray(record.torque, float)[part]
+        cols = _columns(
+            names, theta, record.condition, geometry[record.posture], prep.direction, basis, coef
+        )
+        x = _matrix(cols, theta)
+        model = x @ coef
+        x = x[:, np.any(x != 0.0, axis=0)]  # what the fit could absorb from this sweep
+        found.append(sweep_noise(y, model, x, record.rate))
+    return pooled_noise(found)
 
 
 #: Units of the joint's parameters in :func:`living_tables`.

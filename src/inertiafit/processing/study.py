@@ -42,7 +42,8 @@ from inertiafit.processing.activity import (
     study_rest_levels,
 )
 from inertiafit.processing.emg import mvc_levels
-from inertiafit.processing.gravity import GravityFit, fit_gravity
+from inertiafit.processing.filtering import sampling_rate
+from inertiafit.processing.gravity import GravityFit, fit_gravity, pooled_noise
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import lag_consistency_flags
 from inertiafit.processing.living import (
@@ -310,7 +311,8 @@ def combine_gravity(fits: list[GravityFit], where: str) -> GravityFit:
     beta_i``; ``M_g``, ``phi``, the offset and their standard errors follow from ``beta`` and
     ``Sigma`` as for one fit. ``n`` and ``n_effective`` add up, ``se_dof`` too (the noise
     models are independent), ``residual_rms`` is the pooled one, ``angle_range`` the widest,
-    ``median_speed`` the median of the fits' and the flags are all the fits' flags. A fit whose
+    ``median_speed`` the median of the fits' and the flags are all the fits' flags, the noise
+    model the pooled one (:func:`pooled_noise`). A fit whose
     covariance is singular (an exact model) is used alone.
     """
     if len(fits) == 1:
@@ -348,6 +350,7 @@ def combine_gravity(fits: list[GravityFit], where: str) -> GravityFit:
         coefficients=coef,
         covariance=cov,
         se_dof=float(sum(f.se_dof for f in fits)),
+        noise=pooled_noise([f.noise for f in fits]),
     )
 
 
@@ -791,6 +794,7 @@ def _record(spec: TrialSpec, ds: xr.Dataset) -> StaticRecord:
         posture=spec.posture,
         kind=spec.kind,
         source=str(spec.file),
+        rate=sampling_rate(ds),
     )
 
 
