@@ -468,7 +468,7 @@ def test_the_library_error_carries_the_table(base, tmp_path):  # noqa: F811
         "note",
     ]  # fmt: skip
     assert re.match(
-        r"data/A_240_01\.csv +attachment +fast +240 +6\.0\d* \+- 0\.1\d +refused +I = 6\.03",
+        r"data/A_240_01\.csv +attachment +fast +240 +6\.0\d* \+- 0\.\d+ +refused +I = 6\.03",
         lines[2],
     )
 
