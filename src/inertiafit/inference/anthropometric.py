@@ -31,12 +31,12 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 from functools import cache
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from inertiafit._checks import check_interval
 from inertiafit.errors import InputError
+from inertiafit.io.shipped import shipped_dirs
 from inertiafit.physics import PARAMETERS
 
 __all__ = [
@@ -203,14 +203,7 @@ class SegmentValues:
 
 def table_dirs() -> list[Path]:
     """Folders holding the table files: inside the wheel, or the source tree's priors/."""
-    dirs = []
-    packaged = Path(str(resources.files("inertiafit"))) / "priors" / "anthropometric"
-    if packaged.is_dir():
-        dirs.append(packaged)
-    source_tree = Path(__file__).resolve().parents[3] / "priors" / "anthropometric"
-    if source_tree.is_dir():
-        dirs.append(source_tree)
-    return dirs
+    return shipped_dirs("anthropometric")
 
 
 def available_tables() -> dict[str, Path]:
