@@ -143,6 +143,18 @@ def test_a_figure_registered_once_is_saved_and_embedded(study_out, tmp_path, mon
     )
 
 
+@pytest.mark.parametrize(("load", "expected"), [(0.3, 2), (1.2, 1), (6.0, 1)])
+def test_figures_are_drawn_in_parallel_only_on_idle_cores(monkeypatch, load, expected):
+    # two cores: a quiet machine (this process's own load 0.3) gets two drawing workers; a
+    # busy one (another process on a core, or the test suite's workers) draws in-process
+    monkeypatch.setattr(outputs_module.os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr(outputs_module.os, "getloadavg", lambda: (load, load, load))
+    assert outputs_module.idle_cores() == expected
+    assert outputs_module._worker_count(5, None) == expected
+    assert outputs_module._worker_count(5, 2) == 2  # asked for: always
+    assert outputs_module._worker_count(1, None) == 1  # one figure
+
+
 def test_figures_drawn_in_worker_processes_are_the_same_files(study_out, tmp_path):
     result = load_result(study_out)
     records = [r for r in figure_records(result) if r.stem.startswith("fast-trials-")][:2]
