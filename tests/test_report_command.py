@@ -143,16 +143,22 @@ def test_a_figure_registered_once_is_saved_and_embedded(study_out, tmp_path, mon
     )
 
 
-@pytest.mark.parametrize(("load", "expected"), [(0.3, 2), (1.2, 1), (6.0, 1)])
-def test_figures_are_drawn_in_parallel_only_on_idle_cores(monkeypatch, load, expected):
-    # two cores: a quiet machine (this process's own load 0.3) gets two drawing workers; a
-    # busy one (another process on a core, or the test suite's workers) draws in-process
+@pytest.mark.parametrize(("running", "expected"), [(1, 2), (2, 1), (7, 1)])
+def test_figures_are_drawn_in_parallel_only_on_idle_cores(
+    monkeypatch, tmp_path, running, expected
+):
+    # two cores: alone (the kernel counts this process running) two drawing workers; with
+    # another process running (the test suite's other worker), drawn in-process
     monkeypatch.setattr(outputs_module.os, "sched_getaffinity", lambda pid: {0, 1})
-    monkeypatch.setattr(outputs_module.os, "getloadavg", lambda: (load, load, load))
+    loadavg = tmp_path / "loadavg"
+    loadavg.write_text(f"0.52 0.41 0.30 {running}/180 9999\n")
+    monkeypatch.setattr(outputs_module, "LOADAVG", loadavg)
     assert outputs_module.idle_cores() == expected
     assert outputs_module._worker_count(5, None) == expected
     assert outputs_module._worker_count(5, 2) == 2  # asked for: always
     assert outputs_module._worker_count(1, None) == 1  # one figure
+    monkeypatch.setattr(outputs_module, "LOADAVG", tmp_path / "missing")
+    assert outputs_module.idle_cores() == 2  # not readable: every core
 
 
 def test_figures_drawn_in_worker_processes_are_the_same_files(study_out, tmp_path):

@@ -7,7 +7,6 @@ posterior (``inertiafit run``, ``fit``, ``demo``, ``report``). It draws only fro
 
 from __future__ import annotations
 
-import math
 import multiprocessing
 import os
 import sys
@@ -45,7 +44,7 @@ DATA_FILES = ("posterior.nc", "trials.csv", "traces.csv", "emg_traces.csv")
 
 #: Figures are drawn and saved in up to this many forked processes (Linux; one where fork is
 #: unavailable, in a daemonic process such as a Dask worker, or on one core). By default no
-#: more than the cores other processes leave idle (:func:`idle_cores`): on a busy machine each
+#: more than the cores other processes leave idle now (:func:`idle_cores`): on a busy machine each
 #: forked worker would import matplotlib and corner again for no gain in time (measured: 18 %
 #: more CPU for the command tests, which run one per core).
 FIGURE_WORKERS = 2
@@ -69,19 +68,25 @@ def _draw_queued(index: int) -> bytes:
     return _draw(*_QUEUE[index])
 
 
-def idle_cores() -> int:
-    """Cores this process may use that others leave idle: at least 1.
+#: Where Linux says how many processes are running this instant (the 4th field, ``r/total``).
+LOADAVG = Path("/proc/loadavg")
 
-    The cores it may run on less the 1-minute load average, which counts this process itself
-    (it waits while the figures are drawn, so its core is counted as free).
+
+def idle_cores() -> int:
+    """Cores this process may use that others leave idle now: at least 1.
+
+    The cores it may run on less the processes running besides it, as the kernel counts them
+    this instant (``/proc/loadavg``'s running count, which includes this process; it waits
+    while the figures are drawn, so its core is counted as free). Where that count cannot be
+    read, every core.
     """
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     cores = cores or 1
     try:
-        load = os.getloadavg()[0]
-    except OSError:  # no load average on this system
+        running = int(LOADAVG.read_text().split()[3].split("/")[0])
+    except (OSError, ValueError, IndexError):
         return cores
-    return max(1, min(cores, math.floor(cores - load + 1)))
+    return max(1, min(cores, cores - (running - 1)))
 
 
 def _worker_count(figures: int, workers: int | None) -> int:
