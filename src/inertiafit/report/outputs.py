@@ -45,7 +45,7 @@ DATA_FILES = ("posterior.nc", "trials.csv", "traces.csv", "emg_traces.csv")
 #: Figures are drawn and saved in up to this many forked processes (Linux; one where fork is
 #: unavailable, in a daemonic process such as a Dask worker, or on one core). By default no
 #: more than the cores other processes leave idle now (:func:`idle_cores`): on a busy machine each
-#: forked worker would import matplotlib and corner again for no gain in time (measured: 18 %
+#: forked worker would import matplotlib and corner again for no gain in time (measured: 23 %
 #: more CPU for the command tests, which run one per core).
 FIGURE_WORKERS = 2
 
