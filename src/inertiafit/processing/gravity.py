@@ -490,10 +490,11 @@ class GravityRegression:
         Standard deviation of ``friction`` over the models.
     friction_probability : float
         Posterior probability of a build-up.
-    trial_drift : (float, float)
-        The drift a fast trial of the condition takes (:func:`fast_trial_drift`): its
-        standard deviation (N m) and correlation time (samples), fitted with the white level
-        held at the sweep's own (:func:`white_level`).
+    trial_noise : (float, float, float)
+        The noise a fast trial of the condition sees: the sweep's white level
+        (:func:`white_level`, N m) and the drift fitted with it held
+        (:func:`_drift_given_white`): its standard deviation (N m) and correlation time
+        (samples).
     """
 
     coefficients: NDArray
@@ -509,7 +510,7 @@ class GravityRegression:
     friction_angle: float = 0.0
     friction_se: float = 0.0
     friction_probability: float = 0.0
-    trial_drift: tuple[float, float] = (0.0, 0.0)
+    trial_noise: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 def moving_part(theta: NDArray) -> slice:
@@ -772,7 +773,8 @@ def gravity_regression(
         design[:stop_best, 3] = column_best
     theta_noise, reml, info, length, used = _fit_noise(residuals, design, NOISE_BATCHES)
     white = float(np.exp(theta_noise[0]))
-    trial_drift = _drift_given_white(residuals, design, white_level(y) ** 2)
+    trial_white = white_level(y)
+    trial_drift = _drift_given_white(residuals, design, trial_white**2)
 
     # The covariance of each model's coefficients under the noise model: the drift part from
     # the batch means, the white part exact (a steep build-up column changes within a batch).
@@ -860,7 +862,7 @@ def gravity_regression(
         friction_se=friction_se,
         friction_angle=float(angles[likeliest - 1]) if likeliest else 0.0,
         friction_probability=float(1.0 - weights[0]),
-        trial_drift=trial_drift,
+        trial_noise=(trial_white, *trial_drift),
     )
 
 
@@ -1008,8 +1010,8 @@ def fit_gravity(
         covariance=cov.copy(),
         se_dof=reg.se_dof,
         noise=TorqueNoise(
-            white_level(torque[reg.fitted]) if noisy else 0.0,
-            reg.trial_drift[0] if noisy else 0.0,
-            reg.trial_drift[1] / sampling_rate(trial),
+            reg.trial_noise[0] if noisy else 0.0,
+            reg.trial_noise[1] if noisy else 0.0,
+            reg.trial_noise[2] / sampling_rate(trial),
         ),
     )
