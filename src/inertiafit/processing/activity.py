@@ -33,7 +33,7 @@ import xarray as xr
 from inertiafit.errors import InputError
 from inertiafit.io.emg import EmgSettings
 from inertiafit.processing.emg import emg_activity, emg_envelope
-from inertiafit.processing.filtering import source_of
+from inertiafit.processing.filtering import sampling_rate, source_of
 
 __all__ = [
     "MOTION_ONSET",
@@ -179,7 +179,7 @@ def _quietest(
     quiet: dict[str, tuple[float, float, str, float, float]] = {}
     for ds, env in envelopes:
         time = np.asarray(env["time"].values)
-        rate = 1.0 / float(np.median(np.diff(time)))
+        rate = sampling_rate(ds)
         half = round(settings.rms_window * rate / 2)
         span = max(2, min(round(QUIET_SPAN * rate), len(time) - 2 * half))
         for name, row in zip(env["muscle"].values, env.values, strict=True):
@@ -215,8 +215,7 @@ def _quiet_parts(
     levels = {m: baseline[m][:2] for m in (str(x) for x in env["muscle"].values)}
     table = emg_activity(ds, rest=levels, settings=settings)
     time = np.asarray(env["time"].values)
-    rate = 1.0 / float(np.median(np.diff(time)))
-    half = round(settings.rms_window * rate / 2)
+    half = round(settings.rms_window * sampling_rate(ds) / 2)
     ends = np.zeros(len(time), dtype=bool)
     if len(time) > 4 * half + 2:
         ends[:half] = ends[len(time) - half :] = True
@@ -275,10 +274,9 @@ def study_rest_levels(
     rest_envs = [(ds, _envelopes(ds, settings)) for ds in rest_trials if "emg" in ds]
     baseline = _quietest(rest_envs, settings)
     per_muscle: dict[str, list[tuple[float, float]]] = {}
-    rate_of = {id(ds): 1.0 / float(np.median(np.diff(ds["time"].values))) for ds, _ in rest_envs}
     for ds, env in rest_envs:
         parts, table = _quiet_parts(ds, env, baseline, settings)
-        enough = max(2, round(settings.rms_window * rate_of[id(ds)]))
+        enough = max(2, round(settings.rms_window * sampling_rate(ds)))
         for m, values in parts.items():
             if len(values) >= enough:
                 per_muscle.setdefault(m, []).append((float(values.mean()), float(values.std())))

@@ -446,7 +446,7 @@ def emg_activity(
         for m in names:
             thresholds[m] = max(thresholds[m], fraction * peaks[m])
 
-    rate = 1.0 / float(np.median(np.diff(time)))
+    rate = sampling_rate(trial)
     min_samples = max(1, math.ceil(duration * rate - 1e-9))
     # the envelope's window lifts it for its own length around any event, however short (one
     # spike lifts a 50 ms RMS for 50 ms): activity lasting `duration` keeps it up for the
