@@ -1,5 +1,18 @@
 """Inputs shared by many tests: the paper's disk as numbers for `inertiafit fit`, and the
-attachment with a 3 kg disk as simulated bodies with their priors."""
+attachment with a 3 kg disk as simulated bodies with their priors; a
+script run as an ordinary user."""
+
+import importlib
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import traceback
+import warnings
+from pathlib import Path
+
+import pytest
 
 #: `inertiafit fit` on the paper's 3 kg disk (Son et al., Table 3): inertia and gravity moment
 #: with their standard errors.
@@ -49,3 +62,61 @@ def one_condition_study(folder):
         priors={"attachment": PRIORS["attachment"]},
     )
     return folder
+
+
+def as_ordinary_user(
+    script: str, imports: tuple[str, ...] = ()
+) -> subprocess.CompletedProcess[str]:
+    """Run a Python ``script`` without root's rights, in a fresh folder of its own (its cwd).
+
+    Root ignores file permissions, and CI containers run as root, so there the script runs in a
+    forked child that drops to ``nobody`` (an interpreter kept under /root could not be run by
+    it, nor the modules it has not imported yet: name them in ``imports``); any other user runs
+    it the same way as themselves. The script prints what the test checks and must leave its
+    folder removable by its user.
+    """
+    ids = None
+    if os.name == "posix" and os.geteuid() == 0:
+        import pwd
+
+        try:
+            nobody = pwd.getpwnam("nobody")
+        except KeyError:
+            pytest.skip("running as root and no user 'nobody' to drop to")
+        ids = (nobody.pw_uid, nobody.pw_gid)
+    folder = Path(tempfile.mkdtemp(prefix="inertiafit-user-"))
+    try:
+        if ids is not None:
+            os.chown(folder, *ids)
+        with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+            with warnings.catch_warnings():
+                # pytest-xdist's threads: the child only runs the script and exits
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
+            if pid == 0:  # pragma: no cover (the child)
+                code = 1
+                try:
+                    for name in imports:
+                        importlib.import_module(name)
+                    if ids is not None:
+                        os.setgroups([])
+                        os.setgid(ids[1])
+                        os.setuid(ids[0])
+                    os.chdir(folder)
+                    sys.stdout, sys.stderr = out, err
+                    exec(compile(script, "<as_ordinary_user>", "exec"), {})  # noqa: S102 (a test's own script)
+                    code = 0
+                except BaseException:  # noqa: BLE001 (reported to the parent, as a traceback)
+                    traceback.print_exc(file=err)
+                finally:
+                    out.flush()
+                    err.flush()
+                    os._exit(code)
+            status = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
+            out.seek(0)
+            err.seek(0)
+            return subprocess.CompletedProcess(
+                ["<as_ordinary_user>"], status, out.read(), err.read()
+            )
+    finally:
+        shutil.rmtree(folder)

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 import pytest
-from cases import DISK_FIT
+from cases import DISK_FIT, as_ordinary_user
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -255,21 +255,31 @@ def test_catalogue_one_line_exit_2_nothing_touched(setup, expected, tmp_path, mo
     assert snapshot(tmp_path) == before
 
 
-# Real permissions, for users other than root. The same refusals are injected (so they run as
-# root too, as CI containers often do) by test_a_parent_that_cannot_be_written_is_one_line and
+# Real permissions: root ignores them, so where the tests run as root (CI containers) these run
+# as `nobody` (cases.as_ordinary_user). The same refusals are also injected, in this process, by
+# test_a_parent_that_cannot_be_written_is_one_line and
 # test_an_entry_that_cannot_be_removed_is_left_aside_with_a_warning.
-@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root writes anywhere")
-def test_unwritable_parent_is_one_line(tmp_path, capsys):
-    ro = tmp_path / "ro"
-    ro.mkdir()
-    ro.chmod(0o555)
-    try:
-        assert main([*FIT, "--out", str(ro / "out")]) == 2
-    finally:
-        ro.chmod(0o755)
-    err = capsys.readouterr().err.strip()
-    assert err.startswith(f"inertiafit: error: --out: cannot write in {ro} (Permission denied)")
-    assert list(ro.iterdir()) == []
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
+def test_unwritable_parent_is_one_line():
+    done = as_ordinary_user(
+        f"""
+import os
+from pathlib import Path
+from inertiafit.cli import main
+ro = Path("ro").resolve()
+ro.mkdir()
+ro.chmod(0o555)
+code = main({[*FIT, "--out", "ro/out"]!r})
+print(code, sorted(os.listdir(ro)))
+ro.chmod(0o755)
+""",
+        imports=("inertiafit.pipeline.fit",),
+    )
+    assert done.stdout == "2 []\n", done.stderr
+    err = done.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("inertiafit: error: --out: cannot write in "), err
+    assert err.endswith("/ro (Permission denied); choose a folder you can write to"), err
 
 
 def test_a_parent_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys):
@@ -452,23 +462,42 @@ def test_a_failure_at_any_step_leaves_one_whole_folder(
         assert "is unchanged and the new outputs were discarded" in error
 
 
-@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root removes anything")
-def test_a_read_only_subfolder_of_the_old_outputs_is_left_aside_with_a_warning(tmp_path, capsys):
-    out = tmp_path / "out"
-    _write(out, OLD)
-    (out / "sub").chmod(0o555)
-    try:
-        _write(out, NEW)
-        aside = [p for p in tmp_path.iterdir() if p.name.startswith(".out.old-")]
-        assert len(aside) == 1
-        assert (aside[0] / "sub" / "x.csv").exists()
-    finally:
-        for p in tmp_path.glob(".out.old-*/sub"):
-            p.chmod(0o755)
-    assert _contents(out) == NEW
-    lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 1
-    assert f"moved aside to {aside[0]} could not all be removed" in lines[0]
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
+def test_a_read_only_subfolder_of_the_old_outputs_is_left_aside_with_a_warning():
+    done = as_ordinary_user(
+        f"""
+import json
+from pathlib import Path
+from inertiafit.io.outputs import output_folder
+
+def write(out, files):
+    with output_folder(out) as tmp:
+        for name, text in files.items():
+            (tmp / name).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / name).write_text(text)
+
+def contents(folder):
+    return {{p.relative_to(folder).as_posix(): p.read_text() for p in folder.rglob("*")
+            if p.is_file() and p.name != {MARKER!r}}}
+
+out = Path("out").resolve()
+write(out, {OLD!r})
+(out / "sub").chmod(0o555)
+write(out, {NEW!r})
+aside = [p for p in out.parent.iterdir() if p.name.startswith(".out.old-")]
+print(json.dumps({{"aside": [str(p) for p in aside], "kept": [(p / "sub" / "x.csv").exists()
+                  for p in aside], "out": contents(out)}}))
+for p in aside:
+    (p / "sub").chmod(0o755)
+"""
+    )
+    got = json.loads(done.stdout)
+    assert len(got["aside"]) == 1, done.stderr
+    assert got["kept"] == [True]
+    assert got["out"] == NEW
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert f"moved aside to {got['aside'][0]} could not all be removed" in lines[0]
 
 
 @pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc to name a dir_fd")
