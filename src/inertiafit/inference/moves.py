@@ -155,6 +155,9 @@ def laplace_fit(model: Model, rng: np.random.Generator) -> tuple[np.ndarray, np.
         v = neg(pts)
         return v[0], (v[1:] - v[0]) / h
 
+    # The mode only centres the proposal: 1e-5 in log a, log b is under 0.001 posterior SD
+    # (measured on the SBC designs, against 1e-9: modes 7e-4 SD apart, SDs within 1e-4) and
+    # takes 45 % fewer evaluations, each an integral over the angle with extra information.
     fits = []
     for b in best:
         if model.ndim <= 4:
@@ -163,7 +166,7 @@ def laplace_fit(model: Model, rng: np.random.Generator) -> tuple[np.ndarray, np.
                     lambda z: neg(z)[0],
                     b,
                     method="Nelder-Mead",
-                    options={"xatol": 1e-9, "fatol": 1e-9, "maxiter": 4000},
+                    options={"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000},
                 )
             )
         else:
