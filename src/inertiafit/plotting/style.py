@@ -25,6 +25,7 @@ __all__ = [
     "DOUBLE_COLUMN",
     "FIGURE_FORMATS",
     "PALETTE",
+    "PNG_COMPRESSION",
     "PRIOR_COLOUR",
     "SINGLE_COLUMN",
     "STYLE",
@@ -176,6 +177,11 @@ def axis_label(parameter: str, body: str | None = None) -> str:
     return f"{body}{label}" if body.endswith("\n") else f"{body}: {label}"
 
 
+#: zlib level of saved PNGs. Pillow's default, 6, spent 12 % of a figure's save on squeezing
+#: files 3-10 % smaller than level 1 does (measured on the demo's 12 figures at 150 dpi).
+PNG_COMPRESSION = 1
+
+
 def save_figure(
     fig: Figure,
     stem: str | Path,
@@ -217,7 +223,8 @@ def save_figure(
         try:
             for fmt in checked:
                 path = Path(f"{stem}.{fmt}")
-                fig.savefig(path, format=fmt, dpi=dpi, metadata=metadata[fmt])
+                extra = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+                fig.savefig(path, format=fmt, dpi=dpi, metadata=metadata[fmt], **extra)
                 paths.append(path)
                 if engine is not None and fig.get_layout_engine() is engine:
                     fig.set_layout_engine("none")
