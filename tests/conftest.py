@@ -28,3 +28,19 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow],
 )
 settings.load_profile("ci")
+
+
+import pytest
+
+
+@pytest.fixture(scope="session")
+def disk_fit(tmp_path_factory):
+    """`inertiafit fit` on the paper's disk (cases.DISK_FIT, seed 4, PNG and PDF): its folder,
+    written once per test process. Read it only; copy it to change it."""
+    from cases import DISK_FIT
+
+    from inertiafit.cli import main
+
+    out = tmp_path_factory.mktemp("disk-fit") / "out"
+    assert main([*DISK_FIT, "--out", str(out), "--seed", "4", "--formats", "png,pdf"]) == 0
+    return out

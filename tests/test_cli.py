@@ -12,11 +12,10 @@ from inertiafit.posterior import SUMMARY_COLUMNS, open_posterior
 DISK = DISK_FIT
 
 
-@pytest.fixture(scope="module")
-def disk_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fit") / "out"
-    assert main([*DISK, "--out", str(out), "--seed", "4", "--formats", "png,pdf"]) == 0
-    return out
+@pytest.fixture
+def disk_run(disk_fit):
+    """conftest's disk_fit: ``fit`` on DISK, seed 4, PNG and PDF."""
+    return disk_fit
 
 
 def test_fit_writes_every_output(disk_run):

@@ -8,7 +8,7 @@ import shutil
 
 import pandas as pd
 import pytest
-from cases import DISK_FIT, PRIORS, TRUTH
+from cases import PRIORS, TRUTH
 
 from inertiafit.cli import main
 from inertiafit.pipeline.redraw import load_result
@@ -259,9 +259,10 @@ def test_report_without_png_files_still_embeds_every_figure(study_out, tmp_path,
     assert html.count("data:image/png;base64,") == len(figures)
 
 
-def test_report_on_a_fit_folder(tmp_path):
+def test_report_on_a_fit_folder(tmp_path, disk_fit):
     out = tmp_path / "fit"
-    assert main([*DISK_FIT, "--out", str(out)]) == 0
+    shutil.copytree(disk_fit, out)  # `fit` on DISK_FIT's numbers (conftest)
+    (out / "identification-disk-3kg.png").unlink()
     before = (out / "comparison.csv").read_text()
     assert main(["report", str(out)]) == 0
     assert (out / "report.html").is_file()
