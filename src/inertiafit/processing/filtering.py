@@ -120,6 +120,38 @@ def _butter(order: int, cutoff: float, rate: float) -> NDArray:
     return signal.butter(order, cutoff, btype="low", fs=rate, output="sos")
 
 
+@functools.lru_cache(maxsize=64)
+def _steady_state(order: int, cutoff: float, rate: float) -> NDArray:
+    # The filter's step-response state (sosfilt_zi): it solves a linear system per section,
+    # which cost more than filtering a fast trial's four channels.
+    return signal.sosfilt_zi(_butter(order, cutoff, rate))
+
+
+def _filtfilt(sos: NDArray, zi: NDArray, x: NDArray, padlen: int) -> NDArray:
+    """``scipy.signal.sosfiltfilt(sos, x, axis=-1, padlen=padlen)`` with ``zi`` given.
+
+    The same steps on the same numbers (odd extension by ``padlen``, forwards from the
+    steady state of the first sample, backwards from that of the last, the extension cut
+    off), so the same result to the last bit and the same memory layout (a reversed view);
+    the filter's steady state ``zi = sosfilt_zi(sos)`` is computed once per design
+    (:func:`_steady_state`) instead of once per call.
+    """
+    shape = [1] * x.ndim
+    shape[-1] = 2
+    state = zi.reshape([len(sos), *shape])
+    ext = np.concatenate(
+        (
+            2 * x[..., :1] - x[..., padlen:0:-1],
+            x,
+            2 * x[..., -1:] - x[..., -2 : -(padlen + 2) : -1],
+        ),
+        axis=-1,
+    )
+    y, _ = signal.sosfilt(sos, ext, axis=-1, zi=state * ext[..., :1])
+    y, _ = signal.sosfilt(sos, y[..., ::-1], axis=-1, zi=state * y[..., -1:])
+    return y[..., ::-1][..., padlen:-padlen]
+
+
 def lowpass_array(
     x: ArrayLike, rate: float, *, cutoff: float = CUTOFF, order: int = ORDER, source: str = ""
 ) -> NDArray:
@@ -152,8 +184,9 @@ def lowpass_rows(
 ) -> NDArray:
     """:func:`lowpass_array` of every row of a 2-D array (or of a 1-D signal), in one pass.
 
-    One :func:`scipy.signal.sosfiltfilt` call over the last axis: each row gets exactly the
-    numbers a call of its own gives, at a third of the cost for four rows of a fast trial
+    The steps of one :func:`scipy.signal.sosfiltfilt` call over the last axis, with the
+    filter's set-up done once per design (:func:`_filtfilt`): each row gets exactly the
+    numbers a call of its own gives, at a ninth of the cost for four rows of a fast trial
     (the call's set-up, not the filtering, is most of a short trial's time).
 
     Parameters
@@ -183,7 +216,7 @@ def lowpass_rows(
             f"{where}trial too short: {x.shape[-1]} samples; filtering at {cutoff:g} Hz needs "
             f"at least {needed} samples ({needed / rate:g} s at {rate:g} Hz)"
         )
-    return signal.sosfiltfilt(sos, x, axis=-1, padlen=padlen)
+    return _filtfilt(sos, _steady_state(int(order), float(cutoff), float(rate)), x, padlen)
 
 
 def derivative(x: ArrayLike, time: ArrayLike) -> NDArray:
