@@ -36,12 +36,14 @@ __all__ = [
     "ORDER",
     "derivative",
     "design",
+    "even_step",
     "lowpass",
     "lowpass_array",
     "lowpass_arrays",
     "lowpass_rows",
     "sampling_rate",
     "source_of",
+    "spectral_derivative",
 ]
 
 #: Default cut-off (Hz) and design order of the low-pass filter.
@@ -244,11 +246,34 @@ def derivative(x: ArrayLike, time: ArrayLike) -> NDArray:
     """
     x = np.asarray(x, dtype=np.float64)
     t = np.asarray(time, dtype=np.float64)
-    n = x.size
-    steps = np.diff(t)
-    if n < 4 or not np.allclose(steps, np.median(steps), rtol=1e-3, atol=0.0):
+    step = even_step(t) if x.size >= 4 else None
+    if step is None:
         return np.gradient(x, t)
+    return spectral_derivative(x, step)
+
+
+def even_step(time: ArrayLike) -> float | None:
+    """The step (s) of evenly spaced samples, ``None`` when they are not.
+
+    Evenly spaced: at least four samples, every step within 0.1 % of the median step (which
+    is returned). :func:`derivative` differentiates spectrally only then; a caller that
+    differentiates several signals on one time line asks once and calls
+    :func:`spectral_derivative` (or ``numpy.gradient`` when this is ``None``).
+    """
+    t = np.asarray(time, dtype=np.float64)
+    if t.size < 4:
+        return None
+    steps = np.diff(t)
     step = float(np.median(steps))
+    if not np.allclose(steps, step, rtol=1e-3, atol=0.0):
+        return None
+    return step
+
+
+def spectral_derivative(x: ArrayLike, step: float) -> NDArray:
+    """:func:`derivative` of a signal sampled every ``step`` seconds (:func:`even_step`)."""
+    x = np.asarray(x, dtype=np.float64)
+    n = x.size
     slope = (x[-1] - x[0]) / (n - 1)
     rest = x - x[0] - slope * np.arange(n)
     odd = np.concatenate([rest, -rest[-2:0:-1]])

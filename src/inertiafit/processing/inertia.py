@@ -29,7 +29,7 @@ model's error, which every fast trial of a condition shares.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,10 +43,11 @@ from inertiafit.io.trial import apply_torque_sign
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
-    derivative,
+    even_step,
     lowpass_rows,
     sampling_rate,
     source_of,
+    spectral_derivative,
 )
 from inertiafit.processing.gravity import (
     GravityFit,
@@ -275,6 +276,11 @@ def estimate_inertia(
     fixed = _check_lag(fixed, lag_bounds, source)
     rate = sampling_rate(trial)
     time = trial["time"].values
+    step = even_step(time)  # once for the trial: the acceleration and the SE's weights
+
+    def differentiate(x: NDArray) -> NDArray:  # filtering.derivative on this time line
+        return np.gradient(x, time) if step is None else spectral_derivative(x, step)
+
     raw_torque = torque_sign * trial["torque"].values
     raw_velocity = trial["velocity"].values
     angle = trial["angle"].values
@@ -298,7 +304,7 @@ def estimate_inertia(
         order=order,
         source=source,
     )
-    alpha_f = derivative(velocity_f, time)
+    alpha_f = differentiate(velocity_f)
     filtered = iter(varying_f)
     terms = [
         np.full_like(time, c, dtype=np.float64) if isinstance(c, float) else next(filtered)
@@ -318,6 +324,7 @@ def estimate_inertia(
             bounds=lag_bounds,
             terms=terms,
             damping=living,
+            rate=rate,
         )
         lag_value, lag_se, lag_source = found.lag, found.lag_se, "estimated"
         flags.extend(found.flags)
@@ -361,7 +368,7 @@ def estimate_inertia(
         laid[:, lag_first : lag_first + lag_weights.size] += np.outer(d_fit_d_lag, lag_weights)
     cov = _noise_covariance(
         laid,
-        time,
+        differentiate,
         rate,
         slopes,
         trial_noise(raw_torque, gravity, noise),
@@ -569,7 +576,7 @@ def trial_noise(
 
 def _noise_covariance(
     laid: NDArray,
-    time: NDArray,
+    differentiate: Callable[[NDArray], NDArray],
     rate: float,
     slopes: NDArray,
     noise: TorqueNoise,
@@ -599,7 +606,7 @@ def _noise_covariance(
     if velocity_sd > 0 and np.any(slopes):
         inertia, damping = float(slopes[0]), float(slopes[1]) if slopes.size > 1 else 0.0
         # F D = D F inside the trial: the derivative of the low-passed weights
-        moved = np.stack([inertia * derivative(w, time) - damping * w for w in weights])
+        moved = np.stack([inertia * differentiate(w) - damping * w for w in weights])
         cov += velocity_sd**2 * (moved @ moved.T)
     return 0.5 * (cov + cov.T)
 

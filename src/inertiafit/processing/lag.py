@@ -221,6 +221,7 @@ def estimate_lag(
     bounds: Sequence[float] = LAG_BOUNDS,
     terms: Sequence[ArrayLike] = (),
     damping: bool = False,
+    rate: float | None = None,
 ) -> LagEstimate:
     """Estimate the lag of the torque channel behind the velocity in a fast trial.
 
@@ -242,6 +243,9 @@ def estimate_lag(
     damping : bool
         Fit ``I alpha + b omega + c`` (a living body's viscous damping) instead of
         ``I alpha + c``.
+    rate : float, optional
+        The sampling rate (Hz), when the caller has it: ``1 / median(diff(time))``
+        (:func:`~inertiafit.processing.filtering.sampling_rate`), computed here otherwise.
 
     Returns
     -------
@@ -264,7 +268,8 @@ def estimate_lag(
     alpha = np.asarray(acceleration, dtype=np.float64)
     vel = np.asarray(velocity, dtype=np.float64)
     lo_bound, hi_bound = float(bounds[0]), float(bounds[1])
-    rate = 1.0 / float(np.median(np.diff(t)))
+    if rate is None:
+        rate = 1.0 / float(np.median(np.diff(t)))
     margin = math.ceil(max(abs(lo_bound), abs(hi_bound)) * rate) + 1
     lo, hi = _move(vel, rate, margin)
     n = hi - lo
