@@ -536,9 +536,16 @@ def _with_misfit(cov: NDArray, solve: NDArray, residuals: NDArray, first: int) -
     p = solve.shape[0] + (1 if residuals.size > first else 0)  # a living fit's c_t too
     sigma2 = float(residuals @ residuals) / max(residuals.size - p, 1)
     parts = [residuals[:first], residuals[first:]] if residuals.size > first else [residuals]
+    gram = solve @ solve.T
+    # "no noise": the model's variances a millionth of the residuals' or less (rounding).
+    # tau is at most the longest part's length: when the model's variances stand even
+    # against that, they stand whatever tau is (rounding is monotone), and tau, a tenth of
+    # a fast trial's processing, need not be computed.
+    longest = float(max(1, *(part.size for part in parts)))
+    if np.all(np.diag(cov) > 1e-6 * np.diag(sigma2 * longest * gram)):
+        return cov
     tau = max(integrated_autocorrelation_time(part) for part in parts)
-    shown = sigma2 * tau * (solve @ solve.T)
-    # "no noise": the model's variances a millionth of the residuals' or less (rounding)
+    shown = sigma2 * tau * gram
     return cov if np.all(np.diag(cov) > 1e-6 * np.diag(shown)) else shown
 
 
