@@ -40,6 +40,7 @@ from scipy import signal
 
 from inertiafit.errors import InputError
 from inertiafit.io.trial import apply_torque_sign
+from inertiafit.io.units import QUANTITIES
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
@@ -275,18 +276,20 @@ def estimate_inertia(
     fixed = lag if lag is not None else trial.attrs.get("lag")
     fixed = _check_lag(fixed, lag_bounds, source)
     rate = sampling_rate(trial)
-    time = trial["time"].values
+    # the variables' arrays (a DataArray built per lookup costs more than some steps below)
+    channel = {name: trial.variables[name].values for name in QUANTITIES}
+    time = channel["time"]
     step = even_step(time)  # once for the trial: the acceleration and the SE's weights
 
     def differentiate(x: NDArray) -> NDArray:  # filtering.derivative on this time line
         return np.gradient(x, time) if step is None else spectral_derivative(x, step)
 
-    raw_torque = torque_sign * trial["torque"].values
-    raw_velocity = trial["velocity"].values
-    angle = trial["angle"].values
+    raw_torque = torque_sign * channel["torque"]
+    raw_velocity = channel["velocity"]
+    angle = channel["angle"]
     living = isinstance(gravity, StaticCurve)
     if isinstance(gravity, StaticCurve):
-        columns = gravity.columns(angle, trial["velocity"].values)
+        columns = gravity.columns(angle, raw_velocity)
         coefficients = tuple(gravity.coefficients)
     else:
         columns = [np.sin(angle), np.cos(angle), 1.0]
@@ -346,9 +349,10 @@ def estimate_inertia(
         min_speed_change=MIN_SPEED_CHANGE,
     )
     extra: dict[str, Any] = {}
+    shifted_rate = np.gradient(shifted, time)  # d/dt of the advanced torque: dI/dL's part
     if living:
         damped = _with_damping(
-            time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sensitivity, source
+            time, net_f, shifted_rate, velocity_f, alpha_f, win, terms, lag_sensitivity, source
         )
         value, solve, rows, frame_mean, sensitivity, residuals, extra = damped
         n = residuals.size
@@ -356,7 +360,7 @@ def estimate_inertia(
         slopes = np.array([value, extra["damping"]])
     else:
         value, solve, rows, frame_mean, sensitivity, residuals, n, sl = _through_origin(
-            time, net_f, shifted, alpha_f, win, terms, lag_sensitivity
+            net_f, shifted_rate, alpha_f, win, terms, lag_sensitivity
         )
         slopes = np.array([value])
     # The estimates as linear functions of the filtered torque on every sample: directly
@@ -364,7 +368,7 @@ def estimate_inertia(
     laid = np.zeros((solve.shape[0], time.size))
     laid[:, rows] = solve
     if lag_weights.size:
-        d_fit_d_lag = solve @ np.gradient(shifted, time)[rows]
+        d_fit_d_lag = solve @ shifted_rate[rows]
         laid[:, lag_first : lag_first + lag_weights.size] += np.outer(d_fit_d_lag, lag_weights)
     cov = _noise_covariance(
         laid,
@@ -423,9 +427,10 @@ def estimate_inertia(
     )
 
 
-def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
+def _through_origin(net_f, shifted_rate, alpha_f, win, terms, lag_sensitivity):
     """A rigid condition: least squares of ``y = I alpha`` in the acceleration window.
 
+    ``shifted_rate`` is the time derivative of the advanced torque (``numpy.gradient``).
     Returns ``(inertia, solve, rows, frame_mean, sensitivity, residuals, n, window slice)``:
     the estimate is ``solve @ net_f[rows]``.
     """
@@ -439,7 +444,7 @@ def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
     frame_mean = float(np.mean(y / alpha))
     # dI/d(A, B, C): directly through the model subtracted, and through the estimated lag
     # (dI/dL is the window's regression of the advanced torque's time derivative).
-    d_inertia_d_lag = float(alpha @ np.gradient(shifted, time)[sl]) / sxx
+    d_inertia_d_lag = float(alpha @ shifted_rate[sl]) / sxx
     sensitivity = tuple(
         float(-(alpha @ term[sl]) / sxx + d_inertia_d_lag * d_lag)
         for term, d_lag in zip(terms, lag_sensitivity, strict=True)
@@ -469,7 +474,9 @@ def deceleration_window(time, velocity_f, alpha_f, *, source, speed_deg_s=None):
     return n - found.stop_index, n - found.start_index
 
 
-def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sensitivity, source):
+def _with_damping(
+    time, net_f, shifted_rate, velocity_f, alpha_f, win, terms, lag_sensitivity, source
+):
     """A living body: least squares of ``y = I alpha + b omega + c_t`` over both windows.
 
     During the acceleration ramp the speed rises with the acceleration, so ``b omega`` alone
@@ -503,7 +510,7 @@ def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sen
     sl = slice(win.start_index, win.stop_index)
     frame_mean = float(np.mean((net_f[sl] - damping * velocity_f[sl]) / alpha_f[sl]))
     solve = gram_inv @ design.T  # d(I, b) / dy over the rows
-    d_fit_d_lag = solve @ np.gradient(shifted, time)[rows]
+    d_fit_d_lag = solve @ shifted_rate[rows]
     sensitivities = [
         tuple(
             float(-(solve[k] @ term[rows]) + d_fit_d_lag[k] * d_lag)
