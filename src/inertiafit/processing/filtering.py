@@ -66,7 +66,7 @@ def sampling_rate(trial: xr.Dataset) -> float:
     InputError
         If the trial has fewer than two samples or a non-increasing time.
     """
-    t = np.asarray(trial["time"].values, dtype=np.float64)
+    t = np.asarray(trial.variables["time"].values, dtype=np.float64)
     if t.size < 2:
         raise InputError(f"{source_of(trial)}: time has {t.size} sample(s); need a recording")
     step = float(np.median(np.diff(t)))
