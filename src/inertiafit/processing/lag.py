@@ -130,19 +130,22 @@ class _Shifter:
         self.size = size
         self.spectrum = fft.rfft(x - (self.x0 + self.slope * self.k), size)
         self.omega = 2.0 * math.pi * np.arange(self.spectrum.size) / size  # rad per sample
+        self.i_omega = 1j * self.omega
         if size % 2 == 0:  # no derivative at the Nyquist bin of a real series
             self.d_omega = self.omega.copy()
             self.d_omega[-1] = 0.0
         else:
             self.d_omega = self.omega
 
-    def shifted(self, seconds: float) -> NDArray:
+    def shifted(self, seconds: float, part: slice | None = None) -> NDArray:
+        """``x(t + seconds)``; only its samples ``part`` when given (each the same number)."""
         s = seconds * self.rate
         if s == 0.0:
-            rest = fft.irfft(self.spectrum, self.size)[: self.n]
+            rest = fft.irfft(self.spectrum, self.size)
         else:
-            rest = fft.irfft(self.spectrum * np.exp(1j * self.omega * s), self.size)[: self.n]
-        return rest + self.x0 + self.slope * (self.k + s)
+            rest = fft.irfft(self.spectrum * np.exp(self.i_omega * s), self.size)
+        cut = slice(0, self.n) if part is None else part
+        return rest[cut] + self.x0 + self.slope * (self.k[cut] + s)
 
     def derivative(self, seconds: float) -> NDArray:
         """d/dt of ``x(t + seconds)`` (per second)."""
@@ -291,7 +294,7 @@ def estimate_lag(
     target = grav[sl]
 
     def residual(lag: float) -> NDArray:
-        y = shifter.shifted(lag)[sl] - target
+        y = shifter.shifted(lag, sl) - target
         return y - basis @ (basis.T @ y)
 
     def ssr(lag: float) -> float:
