@@ -126,7 +126,9 @@ def _butter(order: int, cutoff: float, rate: float) -> NDArray:
 def _steady_state(order: int, cutoff: float, rate: float) -> NDArray:
     # The filter's step-response state (sosfilt_zi): it solves a linear system per section,
     # which cost more than filtering a fast trial's four channels.
-    return signal.sosfilt_zi(_butter(order, cutoff, rate))
+    zi = signal.sosfilt_zi(_butter(order, cutoff, rate))
+    zi.flags.writeable = False  # shared by every call
+    return zi
 
 
 def _filtfilt(sos: NDArray, zi: NDArray, x: NDArray, padlen: int) -> NDArray:
@@ -246,7 +248,7 @@ def derivative(x: ArrayLike, time: ArrayLike) -> NDArray:
     """
     x = np.asarray(x, dtype=np.float64)
     t = np.asarray(time, dtype=np.float64)
-    step = even_step(t) if x.size >= 4 else None
+    step = _even(t) if x.size >= 4 else None
     if step is None:
         return np.gradient(x, t)
     return spectral_derivative(x, step)
@@ -261,8 +263,11 @@ def even_step(time: ArrayLike) -> float | None:
     :func:`spectral_derivative` (or ``numpy.gradient`` when this is ``None``).
     """
     t = np.asarray(time, dtype=np.float64)
-    if t.size < 4:
-        return None
+    return _even(t) if t.size >= 4 else None
+
+
+def _even(t: NDArray) -> float | None:
+    """The median step of ``t`` if every step is within 0.1 % of it, else ``None``."""
     steps = np.diff(t)
     step = float(np.median(steps))
     if not np.allclose(steps, step, rtol=1e-3, atol=0.0):
