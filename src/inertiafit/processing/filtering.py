@@ -132,7 +132,7 @@ def _steady_state(order: int, cutoff: float, rate: float) -> NDArray:
 
 
 def _filtfilt(sos: NDArray, zi: NDArray, x: NDArray, padlen: int) -> NDArray:
-    """``scipy.signal.sosfiltfilt(sos, x, axis=-1, padlen=padlen)`` with ``zi`` given.
+    """``scipy.signal.sosfiltfilt(sos, x, axis=-1, padlen=padlen)``, ``zi`` given, ``padlen > 0``.
 
     The same steps on the same numbers (odd extension by ``padlen``, forwards from the
     steady state of the first sample, backwards from that of the last, the extension cut
