@@ -54,14 +54,22 @@ def stage_profile(manifest: Path) -> list[dict]:
         "read (Study.read: CSV -> Trial)": ("manifest.py", ("read",)),
         "  pandas read_csv + column checks": ("tables.py", ("load_table",)),
         "  make_trial (xarray Dataset, checks)": ("trial.py", ("make_trial",)),
+        "    compare_velocity": ("trial.py", ("compare_velocity",)),
         "fit_gravity (quasi-static)": ("gravity.py", ("fit_gravity",)),
+        "  drift refit for the fast trials": ("gravity.py", ("_drift_given_white",)),
         "estimate_inertia (fast)": ("inertia.py", ("estimate_inertia",)),
-        "  low-pass (torque, velocity, sin, cos)": ("filtering.py", ("lowpass_rows",)),
-        "  acceleration (spectral derivative)": ("filtering.py", ("derivative",)),
+        "  low-pass (all calls: channels, SE weights)": ("filtering.py", ("lowpass_rows",)),
+        "    sosfilt (the passes)": ("_signaltools.py", ("sosfilt",)),
+        "  acceleration, SE weights (derivative)": (
+            "filtering.py",
+            ("derivative", "spectral_derivative"),
+        ),
         "  lag (estimate_lag)": ("lag.py", ("estimate_lag",)),
-        "  sosfiltfilt": ("_signaltools.py", ("sosfiltfilt",)),
+        "  SE from the noise model (W Sigma W')": ("inertia.py", ("_noise_covariance",)),
         "  find_window_arrays": ("window.py", ("find_window", "find_window_arrays")),
         "  integrated_autocorrelation_time": ("gravity.py", ("integrated_autocorrelation_time",)),
+        "fast_trial_flags (plausibility)": ("plausibility.py", ("fast_trial_flags",)),
+        "cruise_slope (the gravity model's scale)": ("plausibility.py", ("cruise_slope",)),
     }
     rows = []
     for label, (fname, funcs) in wanted.items():

@@ -59,10 +59,10 @@ def test_noise_free_inertia_is_unbiased_at_1_khz_and_at_100_hz():
 def test_a_central_difference_puts_a_bias_of_about_one_percent_into_100_hz_trials(monkeypatch):
     # negative control: the acceleration as numpy.gradient of the filtered velocity averages
     # the derivative over two sample periods, which the torque is not
-    def with_gradient(velocity_f, time):
-        return np.gradient(velocity_f, time)
+    def with_gradient(velocity_f, step):
+        return np.gradient(velocity_f, step)
 
-    monkeypatch.setattr(inertia_module, "derivative", with_gradient)
+    monkeypatch.setattr(inertia_module, "spectral_derivative", with_gradient)
     coarse = relative_errors(100.0, 4)
     assert coarse.mean() > 0.006  # measured +0.92 %
 

@@ -285,7 +285,7 @@ def make_trial(
         )
 
     notes = [str(f) for f in flags]
-    check = compare_velocity(t, arrays["angle"], arrays["velocity"])
+    check = compare_velocity(t, arrays["angle"], arrays["velocity"], step=step)
     if not _follows_cleanly(check):  # before any advice on units or the torque's sign
         swapped = _swapped_columns(t, arrays, source=source, names=names)
         if swapped is not None:
@@ -402,7 +402,12 @@ def _integral(time: NDArray, velocity: NDArray) -> NDArray:
 
 
 def compare_velocity(
-    time: ArrayLike, angle: ArrayLike, velocity: ArrayLike, *, sweep: float = MIN_SWEEP
+    time: ArrayLike,
+    angle: ArrayLike,
+    velocity: ArrayLike,
+    *,
+    sweep: float = MIN_SWEEP,
+    step: float | None = None,
 ) -> VelocityCheck | None:
     """Compare a velocity channel with the derivative of the angle, robustly.
 
@@ -418,6 +423,8 @@ def compare_velocity(
         Seconds, radians, radians per second (finite, time increasing).
     sweep : float, optional
         Change of the angle a stretch needs to count (default :data:`MIN_SWEEP`).
+    step : float, optional
+        The median time step (s), when the caller has it; computed here otherwise.
 
     Returns
     -------
@@ -432,7 +439,8 @@ def compare_velocity(
         return None
     with np.errstate(all="ignore"):
         integral = _integral(t, omega)
-        step = float(np.median(np.diff(t)))
+        if step is None:
+            step = float(np.median(np.diff(t)))
         ratios = []
         for length in sorted({min(max(round(s / step), 1), n - 1) for s in _STRETCHES}):
             change = theta[length:] - theta[:-length]

@@ -29,7 +29,7 @@ model's error, which every fast trial of a condition shares.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,13 +40,15 @@ from scipy import signal
 
 from inertiafit.errors import InputError
 from inertiafit.io.trial import apply_torque_sign
+from inertiafit.io.units import QUANTITIES
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
-    derivative,
+    even_step,
     lowpass_rows,
     sampling_rate,
     source_of,
+    spectral_derivative,
 )
 from inertiafit.processing.gravity import (
     GravityFit,
@@ -274,13 +276,20 @@ def estimate_inertia(
     fixed = lag if lag is not None else trial.attrs.get("lag")
     fixed = _check_lag(fixed, lag_bounds, source)
     rate = sampling_rate(trial)
-    time = trial["time"].values
-    raw_torque = torque_sign * trial["torque"].values
-    raw_velocity = trial["velocity"].values
-    angle = trial["angle"].values
+    # the variables' arrays (a DataArray built per lookup costs more than some steps below)
+    channel = {name: trial.variables[name].values for name in QUANTITIES}
+    time = channel["time"]
+    step = even_step(time)  # once for the trial: the acceleration and the SE's weights
+
+    def differentiate(x: NDArray) -> NDArray:  # filtering.derivative on this time line
+        return np.gradient(x, time) if step is None else spectral_derivative(x, step)
+
+    raw_torque = torque_sign * channel["torque"]
+    raw_velocity = channel["velocity"]
+    angle = channel["angle"]
     living = isinstance(gravity, StaticCurve)
     if isinstance(gravity, StaticCurve):
-        columns = gravity.columns(angle, trial["velocity"].values)
+        columns = gravity.columns(angle, raw_velocity)
         coefficients = tuple(gravity.coefficients)
     else:
         columns = [np.sin(angle), np.cos(angle), 1.0]
@@ -298,7 +307,7 @@ def estimate_inertia(
         order=order,
         source=source,
     )
-    alpha_f = derivative(velocity_f, time)
+    alpha_f = differentiate(velocity_f)
     filtered = iter(varying_f)
     terms = [
         np.full_like(time, c, dtype=np.float64) if isinstance(c, float) else next(filtered)
@@ -318,6 +327,7 @@ def estimate_inertia(
             bounds=lag_bounds,
             terms=terms,
             damping=living,
+            rate=rate,
         )
         lag_value, lag_se, lag_source = found.lag, found.lag_se, "estimated"
         flags.extend(found.flags)
@@ -339,9 +349,10 @@ def estimate_inertia(
         min_speed_change=MIN_SPEED_CHANGE,
     )
     extra: dict[str, Any] = {}
+    shifted_rate = np.gradient(shifted, time)  # d/dt of the advanced torque: dI/dL's part
     if living:
         damped = _with_damping(
-            time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sensitivity, source
+            time, net_f, shifted_rate, velocity_f, alpha_f, win, terms, lag_sensitivity, source
         )
         value, solve, rows, frame_mean, sensitivity, residuals, extra = damped
         n = residuals.size
@@ -349,7 +360,7 @@ def estimate_inertia(
         slopes = np.array([value, extra["damping"]])
     else:
         value, solve, rows, frame_mean, sensitivity, residuals, n, sl = _through_origin(
-            time, net_f, shifted, alpha_f, win, terms, lag_sensitivity
+            net_f, shifted_rate, alpha_f, win, terms, lag_sensitivity
         )
         slopes = np.array([value])
     # The estimates as linear functions of the filtered torque on every sample: directly
@@ -357,11 +368,11 @@ def estimate_inertia(
     laid = np.zeros((solve.shape[0], time.size))
     laid[:, rows] = solve
     if lag_weights.size:
-        d_fit_d_lag = solve @ np.gradient(shifted, time)[rows]
+        d_fit_d_lag = solve @ shifted_rate[rows]
         laid[:, lag_first : lag_first + lag_weights.size] += np.outer(d_fit_d_lag, lag_weights)
     cov = _noise_covariance(
         laid,
-        time,
+        differentiate,
         rate,
         slopes,
         trial_noise(raw_torque, gravity, noise),
@@ -416,9 +427,10 @@ def estimate_inertia(
     )
 
 
-def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
+def _through_origin(net_f, shifted_rate, alpha_f, win, terms, lag_sensitivity):
     """A rigid condition: least squares of ``y = I alpha`` in the acceleration window.
 
+    ``shifted_rate`` is the time derivative of the advanced torque (``numpy.gradient``).
     Returns ``(inertia, solve, rows, frame_mean, sensitivity, residuals, n, window slice)``:
     the estimate is ``solve @ net_f[rows]``.
     """
@@ -432,7 +444,7 @@ def _through_origin(time, net_f, shifted, alpha_f, win, terms, lag_sensitivity):
     frame_mean = float(np.mean(y / alpha))
     # dI/d(A, B, C): directly through the model subtracted, and through the estimated lag
     # (dI/dL is the window's regression of the advanced torque's time derivative).
-    d_inertia_d_lag = float(alpha @ np.gradient(shifted, time)[sl]) / sxx
+    d_inertia_d_lag = float(alpha @ shifted_rate[sl]) / sxx
     sensitivity = tuple(
         float(-(alpha @ term[sl]) / sxx + d_inertia_d_lag * d_lag)
         for term, d_lag in zip(terms, lag_sensitivity, strict=True)
@@ -462,7 +474,9 @@ def deceleration_window(time, velocity_f, alpha_f, *, source, speed_deg_s=None):
     return n - found.stop_index, n - found.start_index
 
 
-def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sensitivity, source):
+def _with_damping(
+    time, net_f, shifted_rate, velocity_f, alpha_f, win, terms, lag_sensitivity, source
+):
     """A living body: least squares of ``y = I alpha + b omega + c_t`` over both windows.
 
     During the acceleration ramp the speed rises with the acceleration, so ``b omega`` alone
@@ -496,7 +510,7 @@ def _with_damping(time, net_f, shifted, velocity_f, alpha_f, win, terms, lag_sen
     sl = slice(win.start_index, win.stop_index)
     frame_mean = float(np.mean((net_f[sl] - damping * velocity_f[sl]) / alpha_f[sl]))
     solve = gram_inv @ design.T  # d(I, b) / dy over the rows
-    d_fit_d_lag = solve @ np.gradient(shifted, time)[rows]
+    d_fit_d_lag = solve @ shifted_rate[rows]
     sensitivities = [
         tuple(
             float(-(solve[k] @ term[rows]) + d_fit_d_lag[k] * d_lag)
@@ -529,9 +543,16 @@ def _with_misfit(cov: NDArray, solve: NDArray, residuals: NDArray, first: int) -
     p = solve.shape[0] + (1 if residuals.size > first else 0)  # a living fit's c_t too
     sigma2 = float(residuals @ residuals) / max(residuals.size - p, 1)
     parts = [residuals[:first], residuals[first:]] if residuals.size > first else [residuals]
+    gram = solve @ solve.T
+    # "no noise": the model's variances a millionth of the residuals' or less (rounding).
+    # tau is at most the longest part's length: when the model's variances stand even
+    # against that, they stand whatever tau is (rounding is monotone), and tau, a tenth of
+    # a fast trial's processing, need not be computed.
+    longest = float(max(1, *(part.size for part in parts)))
+    if np.all(np.diag(cov) > 1e-6 * np.diag(sigma2 * longest * gram)):
+        return cov
     tau = max(integrated_autocorrelation_time(part) for part in parts)
-    shown = sigma2 * tau * (solve @ solve.T)
-    # "no noise": the model's variances a millionth of the residuals' or less (rounding)
+    shown = sigma2 * tau * gram
     return cov if np.all(np.diag(cov) > 1e-6 * np.diag(shown)) else shown
 
 
@@ -569,7 +590,7 @@ def trial_noise(
 
 def _noise_covariance(
     laid: NDArray,
-    time: NDArray,
+    differentiate: Callable[[NDArray], NDArray],
     rate: float,
     slopes: NDArray,
     noise: TorqueNoise,
@@ -599,7 +620,7 @@ def _noise_covariance(
     if velocity_sd > 0 and np.any(slopes):
         inertia, damping = float(slopes[0]), float(slopes[1]) if slopes.size > 1 else 0.0
         # F D = D F inside the trial: the derivative of the low-passed weights
-        moved = np.stack([inertia * derivative(w, time) - damping * w for w in weights])
+        moved = np.stack([inertia * differentiate(w) - damping * w for w in weights])
         cov += velocity_sd**2 * (moved @ moved.T)
     return 0.5 * (cov + cov.T)
 

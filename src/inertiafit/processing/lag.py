@@ -130,19 +130,22 @@ class _Shifter:
         self.size = size
         self.spectrum = fft.rfft(x - (self.x0 + self.slope * self.k), size)
         self.omega = 2.0 * math.pi * np.arange(self.spectrum.size) / size  # rad per sample
+        self.i_omega = 1j * self.omega
         if size % 2 == 0:  # no derivative at the Nyquist bin of a real series
             self.d_omega = self.omega.copy()
             self.d_omega[-1] = 0.0
         else:
             self.d_omega = self.omega
 
-    def shifted(self, seconds: float) -> NDArray:
+    def shifted(self, seconds: float, part: slice | None = None) -> NDArray:
+        """``x(t + seconds)``; only its samples ``part`` when given (each the same number)."""
         s = seconds * self.rate
         if s == 0.0:
-            rest = fft.irfft(self.spectrum, self.size)[: self.n]
+            rest = fft.irfft(self.spectrum, self.size)
         else:
-            rest = fft.irfft(self.spectrum * np.exp(1j * self.omega * s), self.size)[: self.n]
-        return rest + self.x0 + self.slope * (self.k + s)
+            rest = fft.irfft(self.spectrum * np.exp(self.i_omega * s), self.size)
+        cut = slice(0, self.n) if part is None else part
+        return rest[cut] + self.x0 + self.slope * (self.k[cut] + s)
 
     def derivative(self, seconds: float) -> NDArray:
         """d/dt of ``x(t + seconds)`` (per second)."""
@@ -221,6 +224,7 @@ def estimate_lag(
     bounds: Sequence[float] = LAG_BOUNDS,
     terms: Sequence[ArrayLike] = (),
     damping: bool = False,
+    rate: float | None = None,
 ) -> LagEstimate:
     """Estimate the lag of the torque channel behind the velocity in a fast trial.
 
@@ -242,6 +246,9 @@ def estimate_lag(
     damping : bool
         Fit ``I alpha + b omega + c`` (a living body's viscous damping) instead of
         ``I alpha + c``.
+    rate : float, optional
+        The sampling rate (Hz), when the caller has it: ``1 / median(diff(time))``
+        (:func:`~inertiafit.processing.filtering.sampling_rate`), computed here otherwise.
 
     Returns
     -------
@@ -264,7 +271,8 @@ def estimate_lag(
     alpha = np.asarray(acceleration, dtype=np.float64)
     vel = np.asarray(velocity, dtype=np.float64)
     lo_bound, hi_bound = float(bounds[0]), float(bounds[1])
-    rate = 1.0 / float(np.median(np.diff(t)))
+    if rate is None:
+        rate = 1.0 / float(np.median(np.diff(t)))
     margin = math.ceil(max(abs(lo_bound), abs(hi_bound)) * rate) + 1
     lo, hi = _move(vel, rate, margin)
     n = hi - lo
@@ -286,7 +294,7 @@ def estimate_lag(
     target = grav[sl]
 
     def residual(lag: float) -> NDArray:
-        y = shifter.shifted(lag)[sl] - target
+        y = shifter.shifted(lag, sl) - target
         return y - basis @ (basis.T @ y)
 
     def ssr(lag: float) -> float:

@@ -103,8 +103,8 @@ def fast_trial_flags(
     ``gravity``, whose filtered velocity and acceleration it reuses.
     """
     source = source_of(trial)
-    time = trial["time"].values
-    v = estimate.velocity if estimate.velocity is not None else trial["velocity"].values
+    time = trial.variables["time"].values
+    v = estimate.velocity if estimate.velocity is not None else trial.variables["velocity"].values
     u = np.abs(np.asarray(v, dtype=np.float64))  # speed, whichever way the shaft turns
     plateau = plateau_speed(u) if u.size and np.max(u) > 0 else 0.0
     flags: list[str] = []
@@ -196,8 +196,8 @@ def _cruise(
     cruise = (u > 0.8 * plateau) & (alpha < 0.2 * float(np.max(alpha)))
     if cruise.sum() < 20:
         return None
-    model = gravity.torque(trial["angle"].values[cruise])
-    torque = trial["torque"].values[cruise]
+    model = gravity.torque(trial.variables["angle"].values[cruise])
+    torque = trial.variables["torque"].values[cruise]
     spread = float(np.std(model))
     if spread < 0.1 * abs(gravity.gravity_moment) or float(np.std(torque)) == 0.0:
         return None
@@ -237,7 +237,7 @@ def cruise_slope(
     large gave 0.1). ``None`` when the cruise cannot tell (too short, or the model nearly flat
     over it).
     """
-    v = estimate.velocity if estimate.velocity is not None else trial["velocity"].values
+    v = estimate.velocity if estimate.velocity is not None else trial.variables["velocity"].values
     u = np.abs(np.asarray(v, dtype=np.float64))
     plateau = plateau_speed(u) if u.size and np.max(u) > 0 else 0.0
     found = _cruise(trial, estimate, gravity, u, plateau)

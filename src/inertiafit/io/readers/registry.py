@@ -11,6 +11,7 @@ file by ``c3d``), else as ``csv``.
 
 from __future__ import annotations
 
+import functools
 import inspect
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -207,6 +208,16 @@ def reader_options(format: str) -> tuple[str, ...]:
         If the format is not registered.
     """
     func = _get_reader(format, where="format")
+    try:
+        return _own_options(func)
+    except TypeError:  # a reader that cannot be a cache key (an unhashable callable)
+        return _own_options.__wrapped__(func)
+
+
+@functools.lru_cache(maxsize=128)
+def _own_options(func: Reader) -> tuple[str, ...]:
+    # Keyed by the reader itself, so a format registered again gets its own; a study asks
+    # twice per trial (its manifest, then the read) and inspect.signature is the cost.
     common = (*COMMON_PARAMETERS, *EMG_PARAMETERS)
     return tuple(p for p in inspect.signature(func).parameters if p not in common)
 
