@@ -223,7 +223,9 @@ def save_figure(
         try:
             for fmt in checked:
                 path = Path(f"{stem}.{fmt}")
-                extra = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+                extra: dict[str, Any] = (
+                    {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+                )
                 fig.savefig(path, format=fmt, dpi=dpi, metadata=metadata[fmt], **extra)
                 paths.append(path)
                 if engine is not None and fig.get_layout_engine() is engine:
