@@ -186,15 +186,20 @@ class Prior:
         """Log prior density of ``(m, x, rho)`` up to a constant; ``-inf`` outside the bounds.
 
         The constant is the same everywhere (each parameter's truncation mass is left out).
-        ``check_support=False`` skips the bounds (for points known to lie inside them).
+        ``check_support=False`` skips the bounds (for points known to lie inside them); a
+        uniform parameter's values are then not read and may be ``None``.
         """
         values = (mass, com_distance, radius_of_gyration)
-        out = np.full(np.broadcast(*values).shape, -self._log_scale)
+        out = np.full(np.broadcast(*(v for v in values if v is not None)).shape, -self._log_scale)
         with np.errstate(divide="ignore", invalid="ignore"):
             for p, raw in zip(PARAMETERS, values, strict=True):
-                v = np.asarray(raw, dtype=float)
                 d = self.distribution.get(p, {})
                 kind = d.get("kind", "uniform")
+                if raw is None:
+                    if kind != "uniform" or check_support:
+                        raise ValueError(f"log_density: {p} is needed (not uniform, or bounds)")
+                    continue
+                v = np.asarray(raw, dtype=float)
                 if kind == "lognormal":
                     log_v = np.log(v)
                     z = (log_v - math.log(d["median"])) / d["sd_log"]
