@@ -142,17 +142,24 @@ class _Cells:
     window's two intervals ``(lo1, len1, lo2)`` (rows).
     """
 
-    __slots__ = ("angles", "fractions", "scale")
+    __slots__ = ("angles", "fractions", "log_width_values", "scale")
 
-    def __init__(self, fractions, scale) -> None:
+    def __init__(self, fractions, scale, log_width_values=None) -> None:
         self.fractions = fractions
         self.scale = scale
+        self.log_width_values = log_width_values
         self.angles: tuple = ()
 
     def edges(self):
         """``(edges, lo1, len1, lo2)``: cell edges in radians into the window, and its intervals."""
         base = _UNIT_EDGES if self.fractions is None else self.fractions
         return (base * self.scale, *self.angles)
+
+    def widths(self, log_w):
+        """``exp(log_w)``, the cells' widths (over the few distinct ones of the equal cells)."""
+        if self.log_width_values is None:
+            return np.exp(log_w)
+        return np.exp(self.log_width_values)[:, _UNIT_WIDTH_INDEX]
 
 
 class Box(Protocol):
@@ -864,16 +871,21 @@ class Model:
         term's core, merged. Returns three ``(rows, cells)`` arrays.
         """
         with np.errstate(divide="ignore", invalid="ignore"):
-            log_f, log_w, grid = self._angle_grid(z, k, a, b)
+            log_f, log_w, grid, _ = self._angle_grid(z, k, a, b)
             return log_f, log_w, grid.edges()
 
-    def _angle_grid(self, z, k: int, a, b):
+    def _angle_grid(self, z, k: int, a, b, *, all_rows: bool = True):
         """:meth:`_curve_grid` with the cell edges as a :class:`_Cells` (made when asked).
 
         The caller sets NumPy's error state. Called on a few rows at a time by the sampler,
         so written for few NumPy calls: per-row quantities in stacked arrays, the cells of a
         window that needs no refining from constants (:data:`_UNIT_MIDS`), the logarithm of
         their widths over their few distinct values; the same numbers as one call per step.
+
+        With ``all_rows=False`` the grid is computed only on the rows inside the support (the
+        others' ``log f`` is ``-inf`` everywhere: nothing to compute), with the same cells as
+        when all rows are; returns ``(log_f, log_w, cells, rows)``, ``rows`` the indices of
+        the rows computed (``None``: all).
         """
         prior = self.priors[self.bodies[k]]
         terms = self._curve_terms(z, k, a)
@@ -928,11 +940,49 @@ class Model:
         f1 += f2
         f1 /= safe
         f_lo, f_hi = f1
+        # unless the core is most of the window: then one grid will do
+        refine = not (f_hi - f_lo > 0.5).all()
+        if all_rows or all_ok:
+            cells = self._grid_values(prior, terms, refine, a, b, ok, safe, lo1, len1, lo2, f1)
+            return (*cells, None)
+        # Only the rows inside the support. The choices above (one grid or a refined one, the
+        # narrowest term) were made over every row, as they are when all rows are computed;
+        # the terms' log-likelihoods on the curve are per row, taken again for these rows.
+        rows = np.flatnonzero(ok)
+        if not rows.size:
+            return np.empty((0, 1)), np.empty((0, 1)), None, rows
+        terms = self._curve_terms(None if z is None else z[rows], k, a[rows])
+        cells = self._grid_values(
+            prior,
+            terms,
+            refine,
+            a[rows],
+            b[rows],
+            ok[rows],
+            safe[rows],
+            lo1[rows],
+            len1[rows],
+            lo2[rows],
+            f1[:, rows],
+        )
+        return (*cells, rows)
+
+    @staticmethod
+    def _grid_values(prior, terms, refine, a, b, ok, safe, lo1, len1, lo2, core_fractions):
+        """The cells of :meth:`_angle_grid` and ``log f`` on them, from its per-row quantities.
+
+        ``ok`` marks the rows inside the support (``safe``: the window's length there, 1
+        elsewhere); ``core_fractions`` holds the core's ends as fractions of the window.
+        Returns ``(log_f, log_w, cells)``.
+        """
+        all_ok = ok.all()
+        f_lo, f_hi = core_fractions
         col = safe[:, None]
-        if (f_hi - f_lo > 0.5).all():  # the core is most of the window: one grid will do
-            cells = _Cells(None, col)
+        if not refine:
+            log_values = np.log(_UNIT_WIDTH_VALUES * col)
+            cells = _Cells(None, col, log_values)
             u = _UNIT_MIDS * col
-            log_w = np.log(_UNIT_WIDTH_VALUES * col)[:, _UNIT_WIDTH_INDEX]
+            log_w = log_values[:, _UNIT_WIDTH_INDEX]
             width_ok = bool((log_w > -np.inf).all())
         else:
             base = _UNIT_EDGES
@@ -995,21 +1045,29 @@ class Model:
         with np.errstate(divide="ignore", invalid="ignore"):
             for i in range(0, len(a), _ROWS_PER_BLOCK):
                 sl = slice(i, i + _ROWS_PER_BLOCK)
-                log_f, log_w, _ = self._angle_grid(None if z is None else z[sl], k, a[sl], b[sl])
+                log_f, log_w, _, rows = self._angle_grid(
+                    None if z is None else z[sl], k, a[sl], b[sl], all_rows=False
+                )
                 top = log_f.max(-1)
                 finite = np.isfinite(top)
                 if finite.all():
                     log_f += log_w
                     log_f -= top[:, None]
                     np.exp(log_f, out=log_f)
-                    out[sl] = top + np.log(log_f.sum(-1))
-                    continue
-                safe = np.where(finite, top, 0.0)
-                out[sl] = np.where(
-                    finite,
-                    safe + np.log(np.exp(log_f + log_w - safe[:, None]).sum(-1)),
-                    -np.inf,
-                )
+                    value = top + np.log(log_f.sum(-1))
+                else:
+                    safe = np.where(finite, top, 0.0)
+                    value = np.where(
+                        finite,
+                        safe + np.log(np.exp(log_f + log_w - safe[:, None]).sum(-1)),
+                        -np.inf,
+                    )
+                if rows is None:
+                    out[sl] = value
+                else:  # rows outside the support: -inf
+                    block = np.full(len(a[sl]), -np.inf)
+                    block[rows] = value
+                    out[sl] = block
         return out
 
     def body_log_curve(self, k: int, first_moment, inertia):
@@ -1041,12 +1099,14 @@ class Model:
         out = np.empty(len(flat))
         for i in range(0, len(flat), _ROWS_PER_BLOCK):
             sl = slice(i, i + _ROWS_PER_BLOCK)
-            log_f, log_w, (edges, lo1, len1, lo2) = self._curve_grid(
-                flat[sl], k, true_a[sl, k], true_b[sl, k]
-            )
+            with np.errstate(divide="ignore", invalid="ignore"):
+                log_f, log_w, cells, _ = self._angle_grid(
+                    flat[sl], k, true_a[sl, k], true_b[sl, k]
+                )
+            edges, lo1, len1, lo2 = cells.edges()
             top = log_f.max(-1, keepdims=True)
             dens = np.exp(log_f - np.where(np.isfinite(top), top, 0.0))
-            w = dens * np.exp(log_w)
+            w = dens * cells.widths(log_w)
             cdf = np.cumsum(w, -1)
             target = v[sl] * cdf[:, -1]
             cell = np.minimum((cdf <= target[:, None]).sum(-1), w.shape[1] - 1)
