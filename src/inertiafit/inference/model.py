@@ -197,7 +197,7 @@ def feasible_angles(first_moment, inertia, prior: Box):
     scalar = a.ndim == 0 and b.ndim == 0
     with np.errstate(invalid="ignore", divide="ignore"):
         out = _feasible_angles(a.reshape(1) if scalar else a, b.reshape(1) if scalar else b, prior)
-    if scalar:
+    if scalar and out.shape[1:] == (1,):  # scalars in, scalars out
         return out[0, 0], out[1, 0], out[2, 0], out[3, 0]
     return out[0], out[1], out[2], out[3]
 
@@ -205,9 +205,10 @@ def feasible_angles(first_moment, inertia, prior: Box):
 def _feasible_angles(a: np.ndarray, b: np.ndarray, prior: Box) -> np.ndarray:
     """:func:`feasible_angles` as one array ``(4, ...)`` of ``lo1, hi1, lo2, hi2``.
 
-    ``a``, ``b`` are float arrays of at least one dimension; the caller sets NumPy's error state (0/0 and x/0 are
-    expected where a row is off the support). Fewer, larger NumPy calls than one per bound:
-    the sampler calls this on a few rows at a time, where each call's overhead is the cost.
+    ``a``, ``b`` are float arrays of at least one dimension; the caller sets NumPy's error
+    state (0/0 and x/0 are expected where a row is off the support). Fewer, larger NumPy calls
+    than one per bound: the sampler calls this on a few rows at a time, where each call's
+    overhead is the cost.
     """
     r = b / a  # x = r sin^2(psi), rho = (r / 2) sin(2 psi)
     lo, up = prior.lower, prior.upper
@@ -880,7 +881,8 @@ class Model:
         The caller sets NumPy's error state. Called on a few rows at a time by the sampler,
         so written for few NumPy calls: per-row quantities in stacked arrays, the cells of a
         window that needs no refining from constants (:data:`_UNIT_MIDS`), the logarithm of
-        their widths over their few distinct values; the same numbers as one call per step.
+        their widths over their few distinct values. The numbers are those of the plain formulas
+        (one NumPy call per quantity), bit for bit.
 
         With ``all_rows=False`` the grid is computed only on the rows inside the support (the
         others' ``log f`` is ``-inf`` everywhere: nothing to compute), with the same cells as
