@@ -710,6 +710,7 @@ class Model:
         self._added = np.array(
             [[c.added_first_moment, c.added_inertia] for c in self.conditions], dtype=float
         )
+        self._has_added = bool(self._added.any())
 
     @property
     def measured(self) -> dict[str, dict[str, Observation]]:
@@ -781,7 +782,7 @@ class Model:
         a, b = self.split(z)
         total_a = a @ self.membership.T
         total_b = b @ self.membership.T
-        if self._added.any():
+        if self._has_added:
             gain = np.exp(self.log_gain(z))[..., None]
             total_a = total_a + gain * self._added[:, 0]
             total_b = total_b + gain * self._added[:, 1]
@@ -891,8 +892,8 @@ class Model:
         """
         prior = self.priors[self.bodies[k]]
         terms = self._curve_terms(z, k, a)
-        m_lo = np.zeros_like(a)
-        m_hi = np.full_like(a, np.inf)
+        m_lo = np.zeros(a.shape)
+        m_hi = np.full(a.shape, np.inf)
         core = narrowest = None
         for piece in terms:
             (lo, hi), (clo, chi) = piece.window, piece.core
@@ -995,7 +996,7 @@ class Model:
                 ],
                 axis=1,
             )
-            edges.sort(axis=1)
+            edges.sort(axis=1, kind="stable")  # two sorted runs: merged, the same values
             cells = _Cells(edges, col)
             u = 0.5 * (edges[:, 1:] + edges[:, :-1]) * col
             width = np.diff(edges, axis=1) * col
