@@ -10,6 +10,7 @@ shared by every trial of a condition, which their scatter cannot show).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -62,6 +63,7 @@ def shared_error(
     return coupling, math.sqrt(max(rest, 0.0))
 
 
+@functools.lru_cache(maxsize=1024)
 def _t_log_constant(scale: float, df: float) -> float:
     """Log normalising constant of a Student-t with scale ``scale`` and ``df`` d.o.f."""
     return float(

@@ -62,6 +62,7 @@ channel sees).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -121,9 +122,44 @@ N_EXTRA_CELLS = 96
 
 #: Edges of :data:`N_EXTRA_CELLS` equal cells of ``[0, 1]``.
 _UNIT_EDGES = np.linspace(0.0, 1.0, N_EXTRA_CELLS + 1)
+#: Their midpoints and widths, computed once: on a window that needs no refining every row has
+#: these cells, scaled.
+_UNIT_MIDS = 0.5 * (_UNIT_EDGES[1:] + _UNIT_EDGES[:-1])
+_UNIT_WIDTHS = np.diff(_UNIT_EDGES)
+#: The few distinct values among those widths, and which one each cell has: the log of a row's
+#: cell widths is taken on these (the same numbers, fewer logarithms).
+_UNIT_WIDTH_VALUES, _UNIT_WIDTH_INDEX = np.unique(_UNIT_WIDTHS, return_inverse=True)
 
 #: Rows of ``(a, b)`` handled at once on the angle grid (bounds the memory of one call).
 _ROWS_PER_BLOCK = 512
+
+
+class _Cells:
+    """The cells of one block of angle grids: their edges, made only when asked.
+
+    ``fractions`` are the edges as fractions of each row's window (``None``: the equal cells
+    :data:`_UNIT_EDGES`), ``scale`` the window's length (a column); :attr:`angles` are the
+    window's two intervals ``(lo1, len1, lo2)`` (rows).
+    """
+
+    __slots__ = ("angles", "fractions", "log_width_values", "scale")
+
+    def __init__(self, fractions, scale, log_width_values=None) -> None:
+        self.fractions = fractions
+        self.scale = scale
+        self.log_width_values = log_width_values
+        self.angles: tuple = ()
+
+    def edges(self):
+        """``(edges, lo1, len1, lo2)``: cell edges in radians into the window, and its intervals."""
+        base = _UNIT_EDGES if self.fractions is None else self.fractions
+        return (base * self.scale, *self.angles)
+
+    def widths(self, log_w):
+        """``exp(log_w)``, the cells' widths (over the few distinct ones of the equal cells)."""
+        if self.log_width_values is None:
+            return np.exp(log_w)
+        return np.exp(self.log_width_values)[:, _UNIT_WIDTH_INDEX]
 
 
 class Box(Protocol):
@@ -158,28 +194,57 @@ def feasible_angles(first_moment, inertia, prior: Box):
     """
     a = np.asarray(first_moment, dtype=float)
     b = np.asarray(inertia, dtype=float)
+    scalar = a.ndim == 0 and b.ndim == 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = _feasible_angles(a.reshape(1) if scalar else a, b.reshape(1) if scalar else b, prior)
+    if scalar and out.shape[1:] == (1,):  # scalars in, scalars out
+        return out[0, 0], out[1, 0], out[2, 0], out[3, 0]
+    return out[0], out[1], out[2], out[3]
+
+
+def _feasible_angles(a: np.ndarray, b: np.ndarray, prior: Box) -> np.ndarray:
+    """:func:`feasible_angles` as one array ``(4, ...)`` of ``lo1, hi1, lo2, hi2``.
+
+    ``a``, ``b`` are float arrays of at least one dimension; the caller sets NumPy's error
+    state (0/0 and x/0 are expected where a row is off the support). Fewer, larger NumPy calls
+    than one per bound: the sampler calls this on a few rows at a time, where each call's
+    overhead is the cost.
+    """
     r = b / a  # x = r sin^2(psi), rho = (r / 2) sin(2 psi)
     lo, up = prior.lower, prior.upper
     # x and m = a / x bound x; x = r sin^2 psi is increasing in psi.
     x_lo = np.maximum(lo["com_distance"], a / up["mass"])
     x_hi = np.minimum(up["com_distance"], a / lo["mass"])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        a0 = np.arcsin(np.sqrt(np.clip(x_lo / r, 0.0, 1.0)))
-        a1 = np.arcsin(np.sqrt(np.clip(x_hi / r, 0.0, 1.0)))
-        # rho >= rho_lo: sin(2 psi) >= 2 rho_lo / r, an interval symmetric about pi/4.
-        s_lo = 2 * lo["radius_of_gyration"] / r
-        b0 = 0.5 * np.arcsin(np.clip(s_lo, 0.0, 1.0))
-        b1 = HALF_PI - b0
-        b1 = np.where(s_lo > 1, -1.0, b1)  # rho can never reach its lower bound
-        # rho <= rho_hi: psi <= c or psi >= pi/2 - c.
-        c = 0.5 * np.arcsin(np.clip(2 * up["radius_of_gyration"] / r, 0.0, 1.0))
-    start = np.maximum(a0, b0)
-    end = np.minimum(a1, b1)
-    empty_x = x_lo >= np.minimum(x_hi, r)
-    end = np.where(empty_x, -1.0, end)
-    lo1, hi1 = start, np.minimum(end, c)
-    lo2, hi2 = np.maximum(start, HALF_PI - c), end
-    return lo1, hi1, lo2, hi2
+    shape = r.shape
+    if not x_lo.shape == shape == x_hi.shape:
+        shape = np.broadcast_shapes(x_lo.shape, x_hi.shape, shape)
+    # sin^2 psi at x_lo and x_hi, sin(2 psi) at rho_lo and rho_hi, clipped to [0, 1]
+    sines = np.empty((4, *shape))
+    sines[0] = x_lo
+    sines[1] = x_hi
+    sines[2] = 2 * lo["radius_of_gyration"]
+    sines[3] = 2 * up["radius_of_gyration"]
+    sines /= r
+    never = sines[2] > 1  # rho can never reach its lower bound
+    np.maximum(sines, 0.0, out=sines)
+    np.minimum(sines, 1.0, out=sines)
+    np.sqrt(sines[:2], out=sines[:2])
+    np.arcsin(sines, out=sines)
+    a0, a1 = sines[0], sines[1]
+    # rho >= rho_lo: sin(2 psi) >= 2 rho_lo / r, an interval symmetric about pi/4.
+    b0 = 0.5 * sines[2]
+    b1 = HALF_PI - b0
+    np.copyto(b1, -1.0, where=never)
+    # rho <= rho_hi: psi <= c or psi >= pi/2 - c.
+    c = 0.5 * sines[3]
+    out = np.empty((4, *shape))
+    start, hi1, lo2, end = out
+    np.maximum(a0, b0, out=start)
+    np.minimum(a1, b1, out=end)
+    np.copyto(end, -1.0, where=x_lo >= np.minimum(x_hi, r))  # x has no room
+    np.minimum(end, c, out=hi1)
+    np.maximum(start, HALF_PI - c, out=lo2)
+    return out
 
 
 def feasible_measure(first_moment, inertia, prior: Box):
@@ -302,24 +367,40 @@ def angles_at(first_moment, inertia, prior: Box, fraction):
     return np.where(u < len1, lo1 + u, lo2 + (u - len1))
 
 
+@functools.lru_cache(maxsize=8)
+def _unit_midpoints(n: int) -> np.ndarray:
+    """Midpoints of ``n`` equal cells of ``[0, 1]`` (read-only)."""
+    mids = (np.arange(n) + 0.5) / n
+    mids.flags.writeable = False
+    return mids
+
+
 def _curve_log_density(a, b, prior: Prior, n: int):
     """``log p_m p_x p_rho`` at the midpoints of ``n`` equal cells of ``Psi(a, b)``.
 
     ``a``, ``b`` are 1-D; returns ``(log density (rows, n), |Psi| (rows,))``. The cells are
-    those of :func:`angles_at` (the two intervals laid end to end).
+    those of :func:`angles_at` (the two intervals laid end to end). The caller sets NumPy's
+    error state.
     """
-    lo1, hi1, lo2, hi2 = feasible_angles(a, b, prior)
-    len1 = np.maximum(hi1 - lo1, 0.0)
-    measure = len1 + np.maximum(hi2 - lo2, 0.0)
+    feasible = _feasible_angles(a, b, prior)
+    lens = feasible[1::2] - feasible[0::2]
+    np.maximum(lens, 0.0, out=lens)
+    lo1, lo2 = feasible[0], feasible[2]
+    len1 = lens[0]
+    measure = len1 + lens[1]
     ok = measure > 0
-    u = ((np.arange(n) + 0.5) / n)[None, :] * measure[:, None]
-    psi = np.where(u < len1[:, None], lo1[:, None] + u, (lo2 - len1)[:, None] + u)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mass, x, rho = physics.parameters_from_identified(
-            np.where(ok, a, 1.0)[:, None], np.where(ok, b, 1.0)[:, None], psi
-        )
-        log_f = prior.log_density(mass, x, rho, check_support=False)
-    return np.where(ok[:, None], log_f, -np.inf), measure
+    all_ok = ok.all()
+    u = _unit_midpoints(n)[None, :] * measure[:, None]
+    psi = u + np.where(u < len1[:, None], lo1[:, None], (lo2 - len1)[:, None])
+    if all_ok:
+        aa, bb = a[:, None], b[:, None]
+    else:
+        aa, bb = np.where(ok, a, 1.0)[:, None], np.where(ok, b, 1.0)[:, None]
+    mass, x, rho = physics.parameters_from_identified(
+        aa, bb, psi, radius=prior.kind("radius_of_gyration") != "uniform"
+    )
+    log_f = prior.log_density(mass, x, rho, check_support=False)
+    return (log_f if all_ok else np.where(ok[:, None], log_f, -np.inf)), measure
 
 
 def log_curve_integral(first_moment, inertia, prior: Prior, n: int = N_ANGLE_CELLS):
@@ -328,17 +409,25 @@ def log_curve_integral(first_moment, inertia, prior: Prior, n: int = N_ANGLE_CEL
     ``a`` times the prior density of ``(a, b)``; ``-inf`` where ``Psi(a, b)`` is empty. For a
     box this is ``log(|Psi| / V)``, ``V`` the box's volume.
     """
-    a, b = np.broadcast_arrays(np.asarray(first_moment, float), np.asarray(inertia, float))
+    a, b = np.asarray(first_moment, float), np.asarray(inertia, float)
+    if a.shape != b.shape:
+        a, b = np.broadcast_arrays(a, b)
     flat_a, flat_b = a.ravel(), b.ravel()
     out = np.empty(flat_a.shape)
-    for i in range(0, len(flat_a), _ROWS_PER_BLOCK):
-        sl = slice(i, i + _ROWS_PER_BLOCK)
-        log_f, measure = _curve_log_density(flat_a[sl], flat_b[sl], prior, n)
-        top = log_f.max(-1)
-        safe = np.where(np.isfinite(top), top, 0.0)
-        with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for i in range(0, len(flat_a), _ROWS_PER_BLOCK):
+            sl = slice(i, i + _ROWS_PER_BLOCK)
+            log_f, measure = _curve_log_density(flat_a[sl], flat_b[sl], prior, n)
+            top = log_f.max(-1)
+            finite = np.isfinite(top)
+            if finite.all():  # the usual case, in place: the same numbers as below
+                log_f -= top[:, None]
+                np.exp(log_f, out=log_f)
+                out[sl] = top + np.log(log_f.sum(-1) / n) + np.log(measure)
+                continue
+            safe = np.where(finite, top, 0.0)
             mean = np.log(np.exp(log_f - safe[:, None]).mean(-1))
-            out[sl] = np.where(np.isfinite(top), safe + mean + np.log(measure), -np.inf)
+            out[sl] = np.where(finite, safe + mean + np.log(measure), -np.inf)
     return out.reshape(a.shape)
 
 
@@ -389,7 +478,8 @@ def draw_angles(first_moment, inertia, prior: Box, rng: np.random.Generator):
     fraction = np.empty(v.shape)
     for i in range(0, len(v), _ROWS_PER_BLOCK):
         sl = slice(i, i + _ROWS_PER_BLOCK)
-        log_f, _ = _curve_log_density(a[sl], b[sl], prior, n)  # type: ignore[arg-type]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_f, _ = _curve_log_density(a[sl], b[sl], prior, n)  # type: ignore[arg-type]
         top = log_f.max(-1, keepdims=True)
         w = np.exp(log_f - np.where(np.isfinite(top), top, 0.0))
         cdf = np.cumsum(w, -1)
@@ -607,6 +697,10 @@ class Model:
         for ci, cond in enumerate(self.conditions):
             if cond.offset_body:
                 self.moved_conditions.setdefault(index[cond.offset_body], []).append(ci)
+        #: The terms on each body's angle, by body.
+        self._angle_terms: dict[str, tuple[Term, ...]] = {
+            body: tuple(t for t in self.terms if t.angle_body == body) for body in self.bodies
+        }
         #: Bodies whose angle ``psi`` meets evidence (module docstring, "Extra information").
         self.curve_bodies = tuple(
             k
@@ -616,6 +710,7 @@ class Model:
         self._added = np.array(
             [[c.added_first_moment, c.added_inertia] for c in self.conditions], dtype=float
         )
+        self._has_added = bool(self._added.any())
 
     @property
     def measured(self) -> dict[str, dict[str, Observation]]:
@@ -687,7 +782,7 @@ class Model:
         a, b = self.split(z)
         total_a = a @ self.membership.T
         total_b = b @ self.membership.T
-        if self._added.any():
+        if self._has_added:
             gain = np.exp(self.log_gain(z))[..., None]
             total_a = total_a + gain * self._added[:, 0]
             total_b = total_b + gain * self._added[:, 1]
@@ -757,10 +852,14 @@ class Model:
         of masses and CoM distances, the interval of masses outside which it holds less than
         :data:`~inertiafit.inference.terms.WINDOW_TAIL` of its mass, and its core
         (:data:`~inertiafit.inference.terms.CORE_SDS` SDs), all ``(rows,)``.
+
+        The terms get the rows as a :class:`~inertiafit.inference.terms.Point` only when the
+        body is moved in some condition; otherwise ``None``, as when the body is evaluated
+        alone (:meth:`body_log_curve`): its terms involve that body only.
         """
         body = self.bodies[k]
-        point = None if z is None else self._point(z)
-        return [t.curve(point, a_k) for t in self.terms if t.angle_body == body]
+        point = None if z is None or k not in self.moved_conditions else self._point(z)
+        return [t.curve(point, a_k) for t in self._angle_terms[body]]
 
     def _curve_grid(self, z, k: int, a, b):
         """Body ``k``'s angle grid for rows ``z``: ``log f``, ``log`` cell width, cell edges.
@@ -773,15 +872,33 @@ class Model:
         :data:`N_EXTRA_CELLS` equal cells over that window and as many over the narrowest
         term's core, merged. Returns three ``(rows, cells)`` arrays.
         """
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_f, log_w, grid, _ = self._angle_grid(z, k, a, b)
+            return log_f, log_w, grid.edges()
+
+    def _angle_grid(self, z, k: int, a, b, *, all_rows: bool = True):
+        """:meth:`_curve_grid` with the cell edges as a :class:`_Cells` (made when asked).
+
+        The caller sets NumPy's error state. Called on a few rows at a time by the sampler,
+        so written for few NumPy calls: per-row quantities in stacked arrays, the cells of a
+        window that needs no refining from constants (:data:`_UNIT_MIDS`), the logarithm of
+        their widths over their few distinct values. The numbers are those of the plain formulas
+        (one NumPy call per quantity), bit for bit.
+
+        With ``all_rows=False`` the grid is computed only on the rows inside the support (the
+        others' ``log f`` is ``-inf`` everywhere: nothing to compute), with the same cells as
+        when all rows are; returns ``(log_f, log_w, cells, rows)``, ``rows`` the indices of
+        the rows computed (``None``: all).
+        """
         prior = self.priors[self.bodies[k]]
         terms = self._curve_terms(z, k, a)
-        m_lo = np.zeros_like(a)
-        m_hi = np.full_like(a, np.inf)
+        m_lo = np.zeros(a.shape)
+        m_hi = np.full(a.shape, np.inf)
         core = narrowest = None
         for piece in terms:
             (lo, hi), (clo, chi) = piece.window, piece.core
             m_lo, m_hi = np.maximum(m_lo, lo), np.minimum(m_hi, hi)
-            if core is None or np.all(chi - clo < core[1] - core[0]):
+            if core is None or (chi - clo < core[1] - core[0]).all():
                 core, narrowest = (clo, chi), (lo, hi)
         assert core is not None
         assert narrowest is not None
@@ -789,31 +906,89 @@ class Model:
         # disagree), take the narrowest term's window: the density there is tiny but finite,
         # so a search from such a state can climb toward the posterior.
         apart = m_lo >= m_hi
-        m_lo = np.where(apart, narrowest[0], m_lo)
-        m_hi = np.where(apart, narrowest[1], m_hi)
+        if apart.any():
+            m_lo = np.where(apart, narrowest[0], m_lo)
+            m_hi = np.where(apart, narrowest[1], m_hi)
 
         # psi of the mass m on the curve through (a, b): sin^2 psi = a^2 / (b m); psi falls as
         # m grows. Rows: window high, window low, core high, core low.
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ends = np.stack([m_hi, m_lo, core[1], core[0]])
-            ends = np.arcsin(np.sqrt(np.clip((a * a / b) / np.maximum(ends, 0.0), 0.0, 1.0)))
-        w_lo, w_hi, c_lo, c_hi = ends
-        lo1, hi1, lo2, hi2 = feasible_angles(a, b, prior)
-        lo1, hi1 = np.maximum(lo1, w_lo), np.minimum(hi1, w_hi)
-        lo2, hi2 = np.maximum(lo2, w_lo), np.minimum(hi2, w_hi)
-        len1, len2 = np.maximum(hi1 - lo1, 0.0), np.maximum(hi2 - lo2, 0.0)
+        ends = np.array([m_hi, m_lo, core[1], core[0]], dtype=float)
+        np.maximum(ends, 0.0, out=ends)
+        np.divide(a * a / b, ends, out=ends)
+        np.maximum(ends, 0.0, out=ends)
+        np.minimum(ends, 1.0, out=ends)
+        np.sqrt(ends, out=ends)
+        np.arcsin(ends, out=ends)
+        # Psi(a, b) cut to the window: rows lo1, lo2 and hi1, hi2
+        feasible = _feasible_angles(a, b, prior)
+        los = np.maximum(feasible[0::2], ends[0])
+        lens = np.minimum(feasible[1::2], ends[1])
+        lens -= los
+        np.maximum(lens, 0.0, out=lens)
+        lo1, lo2 = los
+        len1, len2 = lens
         total = len1 + len2
         ok = (total > 0) & (m_hi > m_lo)
-        safe = np.where(ok, total, 1.0)
+        all_ok = ok.all()
+        safe = total if all_ok else np.where(ok, total, 1.0)
 
-        def fraction(psi):
-            return (np.clip(psi - lo1, 0.0, len1) + np.clip(psi - lo2, 0.0, len2)) / safe
+        # the core's ends as fractions of the window (both intervals laid end to end)
+        core_psi = ends[2:]
+        f1 = core_psi - lo1
+        np.maximum(f1, 0.0, out=f1)
+        np.minimum(f1, len1, out=f1)
+        f2 = core_psi - lo2
+        np.maximum(f2, 0.0, out=f2)
+        np.minimum(f2, len2, out=f2)
+        f1 += f2
+        f1 /= safe
+        f_lo, f_hi = f1
+        # unless the core is most of the window: then one grid will do
+        refine = not (f_hi - f_lo > 0.5).all()
+        if all_rows or all_ok:
+            cells = self._grid_values(prior, terms, refine, a, b, ok, safe, lo1, len1, lo2, f1)
+            return (*cells, None)
+        # Only the rows inside the support. The choices above (one grid or a refined one, the
+        # narrowest term) were made over every row, as they are when all rows are computed;
+        # the terms' log-likelihoods on the curve are per row, taken again for these rows.
+        rows = np.flatnonzero(ok)
+        if not rows.size:
+            return np.empty((0, 1)), np.empty((0, 1)), None, rows
+        terms = self._curve_terms(None if z is None else z[rows], k, a[rows])
+        cells = self._grid_values(
+            prior,
+            terms,
+            refine,
+            a[rows],
+            b[rows],
+            ok[rows],
+            safe[rows],
+            lo1[rows],
+            len1[rows],
+            lo2[rows],
+            f1[:, rows],
+        )
+        return (*cells, rows)
 
-        base = _UNIT_EDGES
-        f_lo, f_hi = fraction(c_lo), fraction(c_hi)
-        if np.all(f_hi - f_lo > 0.5):  # the core is most of the window: one grid will do
-            edges = np.broadcast_to(base, (len(a), len(base)))
+    @staticmethod
+    def _grid_values(prior, terms, refine, a, b, ok, safe, lo1, len1, lo2, core_fractions):
+        """The cells of :meth:`_angle_grid` and ``log f`` on them, from its per-row quantities.
+
+        ``ok`` marks the rows inside the support (``safe``: the window's length there, 1
+        elsewhere); ``core_fractions`` holds the core's ends as fractions of the window.
+        Returns ``(log_f, log_w, cells)``.
+        """
+        all_ok = ok.all()
+        f_lo, f_hi = core_fractions
+        col = safe[:, None]
+        if not refine:
+            log_values = np.log(_UNIT_WIDTH_VALUES * col)
+            cells = _Cells(None, col, log_values)
+            u = _UNIT_MIDS * col
+            log_w = log_values[:, _UNIT_WIDTH_INDEX]
+            width_ok = bool((log_w > -np.inf).all())
         else:
+            base = _UNIT_EDGES
             edges = np.concatenate(
                 [
                     np.broadcast_to(base, (len(a), len(base))),
@@ -821,20 +996,27 @@ class Model:
                 ],
                 axis=1,
             )
-            edges.sort(axis=1)
-        u = 0.5 * (edges[:, 1:] + edges[:, :-1]) * safe[:, None]
-        width = np.diff(edges, axis=1) * safe[:, None]
-        psi = self._angle_at(u, lo1, len1, lo2)
-        aa = np.where(ok, a, 1.0)[:, None]
-        bb = np.where(ok, b, 1.0)[:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            mass, x, rho = physics.parameters_from_identified(aa, bb, psi)
-            log_f = prior.log_density(mass, x, rho, check_support=False)
-            for piece in terms:
-                log_f = log_f + piece.log_likelihood(mass, x)
+            edges.sort(axis=1, kind="stable")  # two sorted runs: merged, the same values
+            cells = _Cells(edges, col)
+            u = 0.5 * (edges[:, 1:] + edges[:, :-1]) * col
+            width = np.diff(edges, axis=1) * col
             log_w = np.log(width)
-        log_f = np.where(ok[:, None] & (width > 0), log_f, -np.inf)
-        return log_f, log_w, (edges * safe[:, None], lo1, len1, lo2)
+            width_ok = bool((width > 0).all())
+        psi = u + np.where(u < len1[:, None], lo1[:, None], (lo2 - len1)[:, None])
+        if all_ok:
+            aa, bb = a[:, None], b[:, None]
+        else:
+            aa, bb = np.where(ok, a, 1.0)[:, None], np.where(ok, b, 1.0)[:, None]
+        mass, x, rho = physics.parameters_from_identified(
+            aa, bb, psi, radius=prior.kind("radius_of_gyration") != "uniform"
+        )
+        log_f = prior.log_density(mass, x, rho, check_support=False)
+        for piece in terms:
+            log_f = log_f + piece.log_likelihood(mass, x)
+        if not (all_ok and width_ok):
+            log_f = np.where(ok[:, None] & (log_w > -np.inf), log_f, -np.inf)
+        cells.angles = (lo1, len1, lo2)
+        return log_f, log_w, cells
 
     @staticmethod
     def _angle_at(u, lo1, len1, lo2):
@@ -863,17 +1045,32 @@ class Model:
     def _log_curve_evidence(self, z, k: int, a, b):
         """``log`` of the integral over ``psi`` of body ``k``'s prior times its evidence (rows)."""
         out = np.empty(len(a))
-        for i in range(0, len(a), _ROWS_PER_BLOCK):
-            sl = slice(i, i + _ROWS_PER_BLOCK)
-            log_f, log_w, _ = self._curve_grid(None if z is None else z[sl], k, a[sl], b[sl])
-            top = np.max(log_f, -1)
-            safe = np.where(np.isfinite(top), top, 0.0)
-            with np.errstate(divide="ignore"):
-                out[sl] = np.where(
-                    np.isfinite(top),
-                    safe + np.log(np.exp(log_f + log_w - safe[:, None]).sum(-1)),
-                    -np.inf,
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for i in range(0, len(a), _ROWS_PER_BLOCK):
+                sl = slice(i, i + _ROWS_PER_BLOCK)
+                log_f, log_w, _, rows = self._angle_grid(
+                    None if z is None else z[sl], k, a[sl], b[sl], all_rows=False
                 )
+                top = log_f.max(-1)
+                finite = np.isfinite(top)
+                if finite.all():
+                    log_f += log_w
+                    log_f -= top[:, None]
+                    np.exp(log_f, out=log_f)
+                    value = top + np.log(log_f.sum(-1))
+                else:
+                    safe = np.where(finite, top, 0.0)
+                    value = np.where(
+                        finite,
+                        safe + np.log(np.exp(log_f + log_w - safe[:, None]).sum(-1)),
+                        -np.inf,
+                    )
+                if rows is None:
+                    out[sl] = value
+                else:  # rows outside the support: -inf
+                    block = np.full(len(a[sl]), -np.inf)
+                    block[rows] = value
+                    out[sl] = block
         return out
 
     def body_log_curve(self, k: int, first_moment, inertia):
@@ -905,12 +1102,14 @@ class Model:
         out = np.empty(len(flat))
         for i in range(0, len(flat), _ROWS_PER_BLOCK):
             sl = slice(i, i + _ROWS_PER_BLOCK)
-            log_f, log_w, (edges, lo1, len1, lo2) = self._curve_grid(
-                flat[sl], k, true_a[sl, k], true_b[sl, k]
-            )
+            with np.errstate(divide="ignore", invalid="ignore"):
+                log_f, log_w, cells, _ = self._angle_grid(
+                    flat[sl], k, true_a[sl, k], true_b[sl, k]
+                )
+            edges, lo1, len1, lo2 = cells.edges()
             top = log_f.max(-1, keepdims=True)
             dens = np.exp(log_f - np.where(np.isfinite(top), top, 0.0))
-            w = dens * np.exp(log_w)
+            w = dens * cells.widths(log_w)
             cdf = np.cumsum(w, -1)
             target = v[sl] * cdf[:, -1]
             cell = np.minimum((cdf <= target[:, None]).sum(-1), w.shape[1] - 1)
@@ -936,13 +1135,28 @@ class Model:
         z = np.atleast_2d(z)
         lp = self.log_prior(z) if not self.has_extra else self._log_marginal(z)
         ok = np.isfinite(lp)
+        if ok.all():  # the sampler's usual case: no rows to leave out
+            return self._plus_direct(lp, self._point(z))
         out = np.full(lp.shape, -np.inf)
         if ok.any():
-            total = lp[ok]
-            for cols in self._stacked(self._point(z[ok]), self._direct).values():
-                total = total + cols.sum(-1)
-            out[ok] = total
+            out[ok] = self._plus_direct(lp[ok], self._point(z[ok]))
         return out
+
+    def _plus_direct(self, total, point: Point):
+        """``total`` plus the terms off every angle at ``point``, summed per variable in turn.
+
+        The sums of :meth:`_stacked`'s columns, without stacking a variable of one column.
+        """
+        cols: dict[str, list[np.ndarray]] = {v: [] for v in self.variables}
+        for term in self._direct:
+            for var, value in term.log_likelihood(point).items():
+                cols[var].append(value)
+        for c in cols.values():
+            if len(c) == 1:
+                total = total + c[0]
+            elif c:
+                total = total + np.stack(c, -1).sum(-1)
+        return total
 
     def parameters(self, z, rng: np.random.Generator) -> dict[str, np.ndarray]:
         """Complete sampled coordinates with exact angle draws → physical parameters.

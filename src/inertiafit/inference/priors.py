@@ -46,6 +46,7 @@ import json
 import math
 import tomllib
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -186,15 +187,20 @@ class Prior:
         """Log prior density of ``(m, x, rho)`` up to a constant; ``-inf`` outside the bounds.
 
         The constant is the same everywhere (each parameter's truncation mass is left out).
-        ``check_support=False`` skips the bounds (for points known to lie inside them).
+        ``check_support=False`` skips the bounds (for points known to lie inside them); a
+        uniform parameter's values are then not read and may be ``None``.
         """
         values = (mass, com_distance, radius_of_gyration)
-        out = np.full(np.broadcast(*values).shape, -self._log_scale)
+        if not check_support:  # the samplers' path: the same numbers, fewer lookups
+            return self._log_density_inside(values)
+        out = np.full(np.broadcast(*(v for v in values if v is not None)).shape, -self._log_scale)
         with np.errstate(divide="ignore", invalid="ignore"):
             for p, raw in zip(PARAMETERS, values, strict=True):
-                v = np.asarray(raw, dtype=float)
                 d = self.distribution.get(p, {})
                 kind = d.get("kind", "uniform")
+                if raw is None:
+                    raise ValueError(f"log_density: {p} is needed to check the bounds")
+                v = np.asarray(raw, dtype=float)
                 if kind == "lognormal":
                     log_v = np.log(v)
                     z = (log_v - math.log(d["median"])) / d["sd_log"]
@@ -205,6 +211,43 @@ class Prior:
                 if check_support:
                     out[~((v >= self.lower[p]) & (v <= self.upper[p]))] = -np.inf
         return out
+
+    def _log_density_inside(self, values) -> np.ndarray:
+        """:meth:`log_density` without the bounds, from the constants of :attr:`_shapes`."""
+        log_scale, shapes = self._shapes
+        shape = np.broadcast(*(v for v in values if v is not None)).shape
+        out = np.full(shape, -log_scale)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for i, p, lognormal, center, scale in shapes:
+                raw = values[i]
+                if raw is None:
+                    raise ValueError(f"log_density: {p} is needed (not uniform)")
+                v = np.asarray(raw, dtype=float)
+                if lognormal:
+                    log_v = np.log(v)
+                    z = (log_v - center) / scale
+                    out -= 0.5 * z * z + log_v
+                else:
+                    z = (v - center) / scale
+                    out -= 0.5 * z * z
+        return out
+
+    @cached_property
+    def _shapes(self) -> tuple[float, tuple[tuple[int, str, bool, float, float], ...]]:
+        """The constants of :meth:`log_density`, computed once (a prior is not changed once made).
+
+        :attr:`_log_scale` and, per parameter that is not uniform, its index, name, whether it
+        is lognormal and the centre and scale of its ``z``.
+        """
+        shapes = []
+        for i, p in enumerate(PARAMETERS):
+            d = self.distribution.get(p, {})
+            kind = d.get("kind", "uniform")
+            if kind == "lognormal":
+                shapes.append((i, p, True, math.log(d["median"]), d["sd_log"]))
+            elif kind != "uniform":  # normal, truncated-normal
+                shapes.append((i, p, False, d["mean"], d["sd"]))
+        return self._log_scale, tuple(shapes)
 
     @property
     def _log_scale(self) -> float:

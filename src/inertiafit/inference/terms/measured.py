@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
@@ -77,14 +78,21 @@ class MeasuredEvidence:
         c = self.observation.center
         return self.measured.masses(c - half, c + half, a)
 
+    @cached_property
+    def _curve_halfwidths(self) -> tuple[float, float]:
+        """Half-widths of the reading's window and core on the curve (:meth:`curve`)."""
+        obs = self.observation
+        return obs.quantile_halfwidth(WINDOW_TAIL), CORE_SDS * obs.total_scale
+
     def curve(self, point: Point | None, a_k) -> CurvePiece:
         """The Gaussian on the body's curve; the masses where the quantity is near its reading."""
         del point  # a function of the body's own parameters only
         obs, q = self.observation, self.measured
+        window, core = self._curve_halfwidths
         return CurvePiece(
             lambda m, x: obs.logpdf(q.value(m, x)),
-            self._masses(a_k, obs.quantile_halfwidth(WINDOW_TAIL)),
-            self._masses(a_k, CORE_SDS * obs.total_scale),
+            self._masses(a_k, window),
+            self._masses(a_k, core),
         )
 
     def body_masses(self, first_moment: tuple[float, float], tail: float) -> tuple[float, float]:
