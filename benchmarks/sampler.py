@@ -182,7 +182,7 @@ def min_ess(draws: dict) -> float:
 
 def run(*, quick: bool = False, seed: int = 1) -> dict:
     plain_steps = 5_000 if quick else 20_000
-    repeats = 2 if quick else 3
+    repeats = 3
     rows = []
     warmed = False
     for name, (prior, obs_i, obs_g, *more) in cases().items():
