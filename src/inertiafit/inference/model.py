@@ -391,6 +391,18 @@ def _curve_log_density(a, b, prior: Prior, n: int):
     ok = measure > 0
     all_ok = ok.all()
     u = _unit_midpoints(n)[None, :] * measure[:, None]
+    _, _, log_f = _prior_on_curve(a, b, u, lo1, len1, lo2, ok, all_ok, prior)
+    return (log_f if all_ok else np.where(ok[:, None], log_f, -np.inf)), measure
+
+
+def _prior_on_curve(a, b, u, lo1, len1, lo2, ok, all_ok, prior: Prior):
+    """``(m, x, log p_m p_x p_rho)`` at the angles ``u`` radians into ``Psi(a, b)``.
+
+    ``u`` has a row per ``(a, b)``; ``lo1, len1, lo2`` are the two intervals of ``Psi`` laid end
+    to end, ``ok`` the rows where it is not empty (``all_ok``: every row; the others are
+    evaluated at ``a = b = 1`` and left for the caller to mask). The caller sets NumPy's error
+    state. rho is computed only where its prior is not uniform.
+    """
     psi = u + np.where(u < len1[:, None], lo1[:, None], (lo2 - len1)[:, None])
     if all_ok:
         aa, bb = a[:, None], b[:, None]
@@ -399,8 +411,7 @@ def _curve_log_density(a, b, prior: Prior, n: int):
     mass, x, rho = physics.parameters_from_identified(
         aa, bb, psi, radius=prior.kind("radius_of_gyration") != "uniform"
     )
-    log_f = prior.log_density(mass, x, rho, check_support=False)
-    return (log_f if all_ok else np.where(ok[:, None], log_f, -np.inf)), measure
+    return mass, x, prior.log_density(mass, x, rho, check_support=False)
 
 
 def log_curve_integral(first_moment, inertia, prior: Prior, n: int = N_ANGLE_CELLS):
@@ -1002,15 +1013,7 @@ class Model:
             width = np.diff(edges, axis=1) * col
             log_w = np.log(width)
             width_ok = bool((width > 0).all())
-        psi = u + np.where(u < len1[:, None], lo1[:, None], (lo2 - len1)[:, None])
-        if all_ok:
-            aa, bb = a[:, None], b[:, None]
-        else:
-            aa, bb = np.where(ok, a, 1.0)[:, None], np.where(ok, b, 1.0)[:, None]
-        mass, x, rho = physics.parameters_from_identified(
-            aa, bb, psi, radius=prior.kind("radius_of_gyration") != "uniform"
-        )
-        log_f = prior.log_density(mass, x, rho, check_support=False)
+        mass, x, log_f = _prior_on_curve(a, b, u, lo1, len1, lo2, ok, all_ok, prior)
         for piece in terms:
             log_f = log_f + piece.log_likelihood(mass, x)
         if not (all_ok and width_ok):
