@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-import inertiafit.processing.inertia as inertia_module
+import inertiafit.processing.filtering as filtering_module
 from inertiafit.processing.filtering import derivative, lowpass_array
 from inertiafit.processing.gravity import GravityFit
 from inertiafit.processing.inertia import estimate_inertia
@@ -62,7 +62,7 @@ def test_a_central_difference_puts_a_bias_of_about_one_percent_into_100_hz_trial
     def with_gradient(velocity_f, step):
         return np.gradient(velocity_f, step)
 
-    monkeypatch.setattr(inertia_module, "spectral_derivative", with_gradient)
+    monkeypatch.setattr(filtering_module, "spectral_derivative", with_gradient)
     coarse = relative_errors(100.0, 4)
     assert coarse.mean() > 0.006  # measured +0.92 %
 

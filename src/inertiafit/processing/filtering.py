@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 
 import numpy as np
 import xarray as xr
@@ -36,6 +37,7 @@ __all__ = [
     "ORDER",
     "derivative",
     "design",
+    "differentiator",
     "even_step",
     "lowpass",
     "lowpass_array",
@@ -246,28 +248,32 @@ def derivative(x: ArrayLike, time: ArrayLike) -> NDArray:
     ndarray[nsamples]
         ``dx/dt``.
     """
-    x = np.asarray(x, dtype=np.float64)
+    return differentiator(time)(x)
+
+
+def differentiator(time: ArrayLike) -> Callable[[ArrayLike], NDArray]:
+    """:func:`derivative` on one time line, whose steps are checked once.
+
+    For a caller that differentiates several signals sampled at ``time``: spectrally
+    (:func:`spectral_derivative`) when the steps are even (:func:`even_step`), else
+    ``numpy.gradient``.
+    """
     t = np.asarray(time, dtype=np.float64)
-    step = _even(t) if x.size >= 4 else None
+    step = even_step(t)
     if step is None:
-        return np.gradient(x, t)
-    return spectral_derivative(x, step)
+        return lambda x: np.gradient(np.asarray(x, dtype=np.float64), t)
+    return lambda x: spectral_derivative(x, step)
 
 
 def even_step(time: ArrayLike) -> float | None:
     """The step (s) of evenly spaced samples, ``None`` when they are not.
 
     Evenly spaced: at least four samples, every step within 0.1 % of the median step (which
-    is returned). :func:`derivative` differentiates spectrally only then; a caller that
-    differentiates several signals on one time line asks once and calls
-    :func:`spectral_derivative` (or ``numpy.gradient`` when this is ``None``).
+    is returned). :func:`derivative` differentiates spectrally only then.
     """
     t = np.asarray(time, dtype=np.float64)
-    return _even(t) if t.size >= 4 else None
-
-
-def _even(t: NDArray) -> float | None:
-    """The median step of ``t`` if every step is within 0.1 % of it, else ``None``."""
+    if t.size < 4:
+        return None
     steps = np.diff(t)
     step = float(np.median(steps))
     if not np.allclose(steps, step, rtol=1e-3, atol=0.0):

@@ -44,11 +44,10 @@ from inertiafit.io.units import QUANTITIES
 from inertiafit.processing.filtering import (
     CUTOFF,
     ORDER,
-    even_step,
+    differentiator,
     lowpass_rows,
     sampling_rate,
     source_of,
-    spectral_derivative,
 )
 from inertiafit.processing.gravity import (
     GravityFit,
@@ -279,10 +278,8 @@ def estimate_inertia(
     # the variables' arrays (a DataArray built per lookup costs more than some steps below)
     channel = {name: trial.variables[name].values for name in QUANTITIES}
     time = channel["time"]
-    step = even_step(time)  # once for the trial: the acceleration and the SE's weights
-
-    def differentiate(x: NDArray) -> NDArray:  # filtering.derivative on this time line
-        return np.gradient(x, time) if step is None else spectral_derivative(x, step)
+    # the time line checked once: the acceleration and the SE's weights
+    differentiate = differentiator(time)
 
     raw_torque = torque_sign * channel["torque"]
     raw_velocity = channel["velocity"]
