@@ -191,25 +191,17 @@ class Prior:
         uniform parameter's values are then not read and may be ``None``.
         """
         values = (mass, com_distance, radius_of_gyration)
-        if not check_support:  # the samplers' path: the same numbers, fewer lookups
-            return self._log_density_inside(values)
-        out = np.full(np.broadcast(*(v for v in values if v is not None)).shape, -self._log_scale)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for p, raw in zip(PARAMETERS, values, strict=True):
-                d = self.distribution.get(p, {})
-                kind = d.get("kind", "uniform")
-                if raw is None:
-                    raise ValueError(f"log_density: {p} is needed to check the bounds")
-                v = np.asarray(raw, dtype=float)
-                if kind == "lognormal":
-                    log_v = np.log(v)
-                    z = (log_v - math.log(d["median"])) / d["sd_log"]
-                    out -= 0.5 * z * z + log_v
-                elif kind != "uniform":  # normal, truncated-normal
-                    z = (v - d["mean"]) / d["sd"]
-                    out -= 0.5 * z * z
-                if check_support:
-                    out[~((v >= self.lower[p]) & (v <= self.upper[p]))] = -np.inf
+        out = self._log_density_inside(values)
+        if not check_support:  # the samplers' path
+            return out
+        # Every NaN of a shape term comes from a value outside its own bounds (a lognormal's
+        # v <= 0, a NaN), which the bounds set to -inf here.
+        for p, raw in zip(PARAMETERS, values, strict=True):
+            if raw is None:
+                raise ValueError(f"log_density: {p} is needed to check the bounds")
+            v = np.asarray(raw, dtype=float)
+            with np.errstate(invalid="ignore"):
+                out[~((v >= self.lower[p]) & (v <= self.upper[p]))] = -np.inf
         return out
 
     def _log_density_inside(self, values) -> np.ndarray:
