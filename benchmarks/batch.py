@@ -15,8 +15,8 @@ condition: 20 trials at 1 kHz each), each a whole ``run_study`` with the default
   (also reported alone) and the workers' cold imports inside the timing.
 
 The three run in turn, ``--repeats`` times; the speed-up is the best one-process serial time over
-the best dask time of this run (and per repeat); the forked-figures row's own is printed beside it. The numbers of both must be identical
-(``batch-summary.csv`` byte for byte). Target: speed-up >= 1.6x on a 2-core machine; the
+the best dask time of this run (and per repeat), the forked-figures row's printed beside it.
+The numbers of all three must be identical (``batch-summary.csv`` byte for byte). Target: speed-up >= 1.6x on a 2-core machine; the
 machine and its load are printed, since other processes take the same cores.
 
 Each row also says how many cores other processes kept busy meanwhile (``/proc/stat`` less this
