@@ -6,6 +6,7 @@ seeded version of it and the outputs of ``inertiafit run`` and ``inertiafit repo
 
 import json
 import math
+import pickle
 import sys
 import tomllib
 from pathlib import Path
@@ -18,6 +19,7 @@ from inertiafit.pipeline.redraw import load_result
 from inertiafit.posterior import open_posterior
 from inertiafit.processing.living import CURVE_COLUMNS
 from inertiafit.processing.study import LIVING_ROW_FLAG, process_study
+from inertiafit.report.figures import figure_records
 from inertiafit.simulate import simulate_living_study
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
@@ -82,6 +84,10 @@ def test_report_redraws_the_living_joint_from_the_folder(living_run):
     _, out = living_run
     result = load_result(out)
     assert set(result.living) == {"passive_parameters", "passive_curve"}
+    # a started pool of figure workers receives the records pickled
+    records = figure_records(result)
+    assert "passive-curve" in [r.stem for r in records]
+    assert [pickle.loads(pickle.dumps(r)).stem for r in records] == [r.stem for r in records]
     before = (out / "passive_parameters.csv").read_text()
     assert main(["report", str(out)]) == 0
     assert (out / "passive_parameters.csv").read_text() == before

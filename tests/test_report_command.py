@@ -1,10 +1,15 @@
 """inertiafit report: redraw tables, figures and report.html from saved results."""
 
+import concurrent.futures
 import functools
 import html
 import json
+import os
+import pickle
 import re
 import shutil
+import signal
+import time
 
 import pandas as pd
 import pytest
@@ -45,7 +50,21 @@ def study_out(tmp_path_factory):
     with manifest.open("a") as fh:
         fh.write(IDEAL)
     out = root / "out"
-    assert main(["run", str(manifest), "--out", str(out), "--seed", "2"]) == 0
+    # Drawn by figure workers started before the trials are read (as on an idle machine, not
+    # the test suite's): every test here reads figures that went through that path.
+    pools = []
+    draw = outputs_module.draw_figures
+
+    def recording(*args, **kwargs):
+        pools.append(kwargs.get("pool"))
+        return draw(*args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(outputs_module, "idle_cores", lambda: 2)
+        mp.setattr(outputs_module, "draw_figures", recording)
+        assert main(["run", str(manifest), "--out", str(out), "--seed", "2"]) == 0
+    assert len(pools) == 1
+    assert isinstance(pools[0], concurrent.futures.ProcessPoolExecutor)
     return out
 
 
@@ -167,14 +186,59 @@ def test_figures_drawn_in_worker_processes_are_the_same_files(study_out, tmp_pat
     serial, forked = tmp_path / "serial", tmp_path / "forked"
     serial.mkdir()
     forked.mkdir()
+    started = tmp_path / "started"  # workers forked before the records existed: pickled
+    started.mkdir()
     one = outputs_module.draw_figures(records, serial, ("png", "pdf"), workers=1)
     two = outputs_module.draw_figures(records, forked, ("png", "pdf"), workers=2)
-    assert one == two
+    with outputs_module.figure_workers(2) as pool:
+        assert isinstance(pool, concurrent.futures.ProcessPoolExecutor)
+        pids = {pool.submit(os.getpid).result() for _ in range(4)}
+        three = outputs_module.draw_figures(records, started, ("png", "pdf"), pool=pool)
+    assert os.getpid() not in pids
+    assert one == two == three
     for r in records:
         for ext in ("png", "pdf"):
-            assert (serial / f"{r.stem}.{ext}").read_bytes() == (
-                forked / f"{r.stem}.{ext}"
-            ).read_bytes()
+            want = (serial / f"{r.stem}.{ext}").read_bytes()
+            assert (forked / f"{r.stem}.{ext}").read_bytes() == want
+            assert (started / f"{r.stem}.{ext}").read_bytes() == want
+
+
+def test_figure_workers_start_only_where_figures_would_be_drawn_in_parallel(monkeypatch):
+    with outputs_module.figure_workers(1) as pool:
+        assert pool is None
+    monkeypatch.setattr(outputs_module, "idle_cores", lambda: 1)  # a busy machine
+    with outputs_module.figure_workers() as pool:
+        assert pool is None
+
+
+def _pid_after(seconds):
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def test_figure_workers_leave_ctrl_c_to_the_command(capfd):
+    # Ctrl-C reaches every process of the command: the workers go on (the command stops them
+    # and says "interrupted" once) rather than each printing a traceback
+    with outputs_module.figure_workers(2) as pool:
+        pids = {f.result() for f in [pool.submit(_pid_after, 0.5) for _ in range(2)]}
+        assert len(pids) == 2
+        for pid in pids:
+            os.kill(pid, signal.SIGINT)
+        assert {f.result() for f in [pool.submit(_pid_after, 0.5) for _ in range(2)]} == pids
+    err = capfd.readouterr().err
+    assert "KeyboardInterrupt" not in err
+    assert "Traceback" not in err
+
+
+def test_every_figure_record_of_a_study_and_a_fit_pickles(study_out, disk_fit):
+    # what a started pool needs: the records travel to its workers (the living joint's are
+    # checked in test_living_study)
+    for folder in (study_out, disk_fit):
+        records = figure_records(load_result(folder))
+        assert len(records) >= 4
+        for r in records:
+            back = pickle.loads(pickle.dumps(r))
+            assert (back.stem, back.section, back.caption) == (r.stem, r.section, r.caption)
 
 
 def _copy(folder, tmp_path):

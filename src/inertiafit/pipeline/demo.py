@@ -22,7 +22,7 @@ from inertiafit.physics import REPORTED
 from inertiafit.pipeline.fit import run_fit
 from inertiafit.pipeline.information import run_information_demo
 from inertiafit.pipeline.study import analyse_study
-from inertiafit.report.outputs import write_outputs
+from inertiafit.report.outputs import figure_workers, write_outputs
 from inertiafit.report.text import study_comparison_text, truth_comparison_text
 from inertiafit.simulate import paper_study, rigid_view, simulate_living_study
 
@@ -127,10 +127,12 @@ def run_demo(
         manifest = paper_study(folder / "study", seed=seed)
         with manifest.open("a", encoding="utf-8") as fh:
             fh.write(DEMO_IDEALS)
-        result = analyse_study(manifest, seed=seed, hdi_prob=hdi_prob, echo=say)
-        result = dataclasses.replace(result, truths=simulated_truths(manifest.parent))
-        say(f"writing {out}")
-        write_outputs(folder, result)
+        # the figure workers ready matplotlib while the study is analysed
+        with figure_workers() as pool:
+            result = analyse_study(manifest, seed=seed, hdi_prob=hdi_prob, echo=say)
+            result = dataclasses.replace(result, truths=simulated_truths(manifest.parent))
+            say(f"writing {out}")
+            write_outputs(folder, result, pool=pool)
         echo("=" * 100)
         echo(f"{result.name}: joint posterior of both bodies")
         echo("=" * 100)

@@ -16,7 +16,7 @@ from inertiafit.io.outputs import check_out, guard_outputs, output_folder
 from inertiafit.physics import GRAVITY
 from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior
-from inertiafit.report.outputs import write_outputs
+from inertiafit.report.outputs import figure_workers, write_outputs
 from inertiafit.report.result import Result, make_result
 from inertiafit.report.text import fit_comparison_text
 
@@ -115,34 +115,36 @@ def run_fit(
     check_positive(gravity, "gravity", "m/s^2")
     check_out(out, inputs=[prior.path if isinstance(prior, Prior) else prior])
     prior_obj = load_prior(prior)
-    post = fit_body(
-        prior_obj,
-        inertia=inertia,
-        gravity_moment=gravity_moment,
-        inertia_se=inertia_se,
-        inertia_sd=inertia_sd,
-        inertia_n=inertia_n,
-        gravity_moment_se=gravity_moment_se,
-        gravity_moment_sd=gravity_moment_sd,
-        gravity_moment_n=gravity_moment_n,
-        gravity=gravity,
-        torque_gain_sd=torque_gain_sd,
-        seed=seed,
-        mass=mass,
-        mass_sd=mass_sd,
-        com_distance=com_distance,
-        com_distance_sd=com_distance_sd,
-    )
-    result = fit_result(
-        post,
-        prior_obj,
-        inertia=float(np.mean(inertia)),
-        gravity_moment=float(np.mean(gravity_moment)),
-        gravity=gravity,
-        hdi_prob=hdi_prob,
-    )
-    with output_folder(out) as folder:
-        written = write_outputs(folder, result, formats=fmts)
+    # The figure workers start now and ready matplotlib while the posterior is sampled.
+    with figure_workers() as pool:
+        post = fit_body(
+            prior_obj,
+            inertia=inertia,
+            gravity_moment=gravity_moment,
+            inertia_se=inertia_se,
+            inertia_sd=inertia_sd,
+            inertia_n=inertia_n,
+            gravity_moment_se=gravity_moment_se,
+            gravity_moment_sd=gravity_moment_sd,
+            gravity_moment_n=gravity_moment_n,
+            gravity=gravity,
+            torque_gain_sd=torque_gain_sd,
+            seed=seed,
+            mass=mass,
+            mass_sd=mass_sd,
+            com_distance=com_distance,
+            com_distance_sd=com_distance_sd,
+        )
+        result = fit_result(
+            post,
+            prior_obj,
+            inertia=float(np.mean(inertia)),
+            gravity_moment=float(np.mean(gravity_moment)),
+            gravity=gravity,
+            hdi_prob=hdi_prob,
+        )
+        with output_folder(out) as folder:
+            written = write_outputs(folder, result, formats=fmts, pool=pool)
     echo(prior_obj.describe())
     echo("")
     echo(post.report(hdi_prob))

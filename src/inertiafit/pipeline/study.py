@@ -40,7 +40,7 @@ from inertiafit.processing.study import (
     process_study,
     usable_trials,
 )
-from inertiafit.report.outputs import write_outputs
+from inertiafit.report.outputs import figure_workers, write_outputs
 from inertiafit.report.result import Result, make_result
 from inertiafit.report.text import diagnostics_text
 from inertiafit.shapes import ideal_body
@@ -272,14 +272,16 @@ def run_study(
     check_out(out, inputs=[manifest])  # before the manifest is read
     study = load_study(manifest)
     check_out(out, inputs=study_inputs(study))
-    try:
-        result = analyse_study(study, seed=seed, hdi_prob=hdi_prob, echo=say)
-    except StudyRefused as exc:
-        _diagnose(exc, out, say)
-        raise
-    say(f"writing {out}")
-    with output_folder(out) as folder:
-        write_outputs(folder, result, formats=formats)
+    # The figure workers start now and ready matplotlib while the trials are read and sampled.
+    with figure_workers() as pool:
+        try:
+            result = analyse_study(study, seed=seed, hdi_prob=hdi_prob, echo=say)
+        except StudyRefused as exc:
+            _diagnose(exc, out, say)
+            raise
+        say(f"writing {out}")
+        with output_folder(out) as folder:
+            write_outputs(folder, result, formats=formats, pool=pool)
     echo(result.posterior.report(hdi_prob))
     for w in result.warnings:
         echo(f"warning: {w}")

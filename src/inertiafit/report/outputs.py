@@ -7,11 +7,14 @@ posterior (``inertiafit run``, ``fit``, ``demo``, ``report``). It draws only fro
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import signal
 import sys
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor
 from pathlib import Path
 
 from inertiafit.io.outputs import write_csv
@@ -33,6 +36,7 @@ __all__ = [
     "DATA_FILES",
     "FIGURE_WORKERS",
     "draw_figures",
+    "figure_workers",
     "idle_cores",
     "write_outputs",
     "write_tables",
@@ -99,6 +103,72 @@ def _worker_count(figures: int, workers: int | None) -> int:
     return min(workers, figures, len(os.sched_getaffinity(0)))
 
 
+def _start_worker(warm: bool) -> None:
+    """A figure worker's start: Ctrl-C left to the parent; with ``warm``, matplotlib readied.
+
+    Ctrl-C in a terminal reaches every process of the command; the parent stops the workers
+    (after the figure each is drawing) and says "interrupted", where each worker would print
+    a traceback. ``warm`` imports corner and draws a small figure with mathtext, so the
+    fonts, the text and mathtext engines and the PNG writer are loaded before the first
+    figure.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if not warm:
+        return
+    import io
+
+    import corner  # noqa: F401  # the corner plots' library, imported once per worker
+    from matplotlib.figure import Figure
+
+    from inertiafit.plotting.style import style_context
+
+    with style_context():
+        fig = Figure(figsize=(1.0, 1.0))
+        fig.add_subplot().set_xlabel(r"$\rho$ [m]")
+        fig.savefig(io.BytesIO(), format="png", dpi=20)
+
+
+def _fork_pool(count: int, *, warm: bool = False) -> Executor:
+    """A pool of ``count`` worker processes, forked now (:func:`_start_worker` in each)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    pool = ProcessPoolExecutor(
+        count,
+        mp_context=multiprocessing.get_context("fork"),
+        initializer=_start_worker,
+        initargs=(warm,),
+    )
+    with warnings.catch_warnings():
+        # Python warns that fork() in a process with threads (BLAS's idle pool) may deadlock
+        # the child; OpenBLAS starts its pool afresh in a forked child, and the workers only
+        # draw and save figures. A process is forked when a task is submitted.
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for _ in range(count):
+            pool.submit(os.getpid)
+    return pool
+
+
+@contextlib.contextmanager
+def figure_workers(workers: int | None = None) -> Iterator[Executor | None]:
+    """Start the processes that will draw a result's figures, before the result exists.
+
+    Forked at once, each imports corner and readies matplotlib (about a second) while this
+    process goes on reading trials and sampling; pass what this yields to
+    :func:`write_outputs` (``pool``) inside the block. Yields ``None`` where the figures are
+    drawn in this process (one worker: see :data:`FIGURE_WORKERS`); the workers stop when
+    the block ends.
+    """
+    count = _worker_count(FIGURE_WORKERS, workers)
+    if count == 1:
+        yield None
+        return
+    pool = _fork_pool(count, warm=True)
+    try:
+        yield pool
+    finally:
+        pool.shutdown(cancel_futures=True)
+
+
 def draw_figures(
     records: Sequence[FigureRecord],
     folder: Path,
@@ -106,41 +176,59 @@ def draw_figures(
     *,
     workers: int | None = None,
     meanwhile: Callable[[], None] | None = None,
+    pool: Executor | None = None,
 ) -> dict[str, bytes]:
     """Save every record's figure into ``folder``; the PNG of each for report.html, by stem.
 
     With more than one worker the figures are drawn in forked processes (each a whole
     figure: drawn, saved, released), in the order given; a figure's files are the same bytes
     whichever process draws it. ``workers`` defaults to :data:`FIGURE_WORKERS`.
-    ``meanwhile`` is called in this process while the workers draw (with one worker: before
-    the figures are drawn).
+    ``pool`` (from :func:`figure_workers`) draws them in workers started earlier: the records
+    are pickled to them. ``meanwhile`` is called in this process while the workers draw
+    (with one worker: before the figures are drawn).
     """
+    calls: list[tuple[Callable[..., bytes], tuple]]
+    if pool is not None:
+        calls = [(_draw, (r, folder, formats)) for r in records]
+        return _draw_in(pool, records, calls, meanwhile)
     count = _worker_count(len(records), workers)
     if count == 1:
         if meanwhile is not None:
             meanwhile()
         return {r.stem: _draw(r, folder, formats) for r in records}
-    from concurrent.futures import ProcessPoolExecutor
-
+    # Forked after the records exist: the workers inherit them (their draw functions need
+    # not be pickled).
     _QUEUE[:] = [(r, folder, formats) for r in records]
     try:
-        with warnings.catch_warnings():
-            # Python warns that fork() in a process with threads (BLAS's idle pool) may
-            # deadlock the child; OpenBLAS starts its pool afresh in a forked child, and the
-            # workers only draw and save figures.
-            warnings.simplefilter("ignore", DeprecationWarning)
-            context = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(count, mp_context=context) as pool:
-                futures = [pool.submit(_draw_queued, i) for i in range(len(records))]
-                try:
-                    if meanwhile is not None:
-                        meanwhile()
-                    pngs = [f.result() for f in futures]
-                except BaseException:
-                    pool.shutdown(cancel_futures=True)
-                    raise
+        forked = _fork_pool(count)
+        try:
+            calls = [(_draw_queued, (i,)) for i in range(len(records))]
+            return _draw_in(forked, records, calls, meanwhile)
+        finally:
+            forked.shutdown(cancel_futures=True)
     finally:
         _QUEUE.clear()
+
+
+def _draw_in(
+    pool: Executor,
+    records: Sequence[FigureRecord],
+    calls: Sequence[tuple[Callable[..., bytes], tuple]],
+    meanwhile: Callable[[], None] | None,
+) -> dict[str, bytes]:
+    """Each call (a function drawing one record, its arguments) run in ``pool``.
+
+    ``meanwhile`` runs in this process while they draw.
+    """
+    futures = [pool.submit(fn, *args) for fn, args in calls]
+    try:
+        if meanwhile is not None:
+            meanwhile()
+        pngs = [f.result() for f in futures]
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
     return {r.stem: png for r, png in zip(records, pngs, strict=True)}
 
 
@@ -201,6 +289,7 @@ def write_outputs(
     formats: tuple[str, ...] = DEFAULT_FORMATS,
     save_data: bool = True,
     workers: int | None = None,
+    pool: Executor | None = None,
 ) -> list[str]:
     """Every output file into ``folder`` (which must exist); the names written, sorted.
 
@@ -210,7 +299,8 @@ def write_outputs(
     the posterior is sampled; a redraw reads them instead.
     Every figure of :func:`~inertiafit.report.figures.figure_records` is saved in
     ``formats`` (default PNG only; PDF and SVG when asked) by :func:`draw_figures`
-    (``workers`` processes) and shown in ``report.html``.
+    (``workers`` processes, or the workers of ``pool`` from :func:`figure_workers`) and
+    shown in ``report.html``.
     """
     hdi_prob = result.hdi_prob if hdi_prob is None else hdi_prob
     before = {p.name for p in folder.iterdir()}
@@ -231,7 +321,7 @@ def write_outputs(
     # the tables and data files are written here while worker processes draw.
     records = figure_records(result)
     embedded = draw_figures(
-        records, folder, tuple(formats), workers=workers, meanwhile=tables_and_data
+        records, folder, tuple(formats), workers=workers, meanwhile=tables_and_data, pool=pool
     )
     study_report(folder / "report.html", result, embedded, hdi_prob, records)
     return sorted({p.name for p in folder.iterdir()} - before)
