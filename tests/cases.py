@@ -5,11 +5,13 @@ script run as an ordinary user."""
 import importlib
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
 import traceback
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -88,35 +90,60 @@ def as_ordinary_user(
     try:
         if ids is not None:
             os.chown(folder, *ids)
-        with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-            with warnings.catch_warnings():
-                # pytest-xdist's threads: the child only runs the script and exits
-                warnings.simplefilter("ignore", DeprecationWarning)
-                pid = os.fork()
-            if pid == 0:  # pragma: no cover (the child)
-                code = 1
-                try:
-                    for name in imports:
-                        importlib.import_module(name)
-                    if ids is not None:
-                        os.setgroups([])
-                        os.setgid(ids[1])
-                        os.setuid(ids[0])
-                    os.chdir(folder)
-                    sys.stdout, sys.stderr = out, err
-                    exec(compile(script, "<as_ordinary_user>", "exec"), {})  # noqa: S102 (a test's own script)
-                    code = 0
-                except BaseException:  # noqa: BLE001 (reported to the parent, as a traceback)
-                    traceback.print_exc(file=err)
-                finally:
-                    out.flush()
-                    err.flush()
-                    os._exit(code)
-            status = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
-            out.seek(0)
-            err.seek(0)
-            return subprocess.CompletedProcess(
-                ["<as_ordinary_user>"], status, out.read(), err.read()
-            )
+        code = compile(script, "<as_ordinary_user>", "exec")
+        return in_fork(
+            lambda: exec(code, {}),  # noqa: S102 (a test's own script)
+            cwd=folder,
+            imports=imports,
+            user=ids,
+        )
     finally:
         shutil.rmtree(folder)
+
+
+def in_fork(
+    body: Callable[[], object],
+    *,
+    cwd: Path,
+    imports: tuple[str, ...] = (),
+    user: tuple[int, int] | None = None,
+    timeout: int | None = None,
+) -> subprocess.CompletedProcess[str]:
+    """Run ``body`` in a forked child with ``cwd`` as its working folder; its exit status,
+    stdout and stderr (a traceback when it raised).
+
+    The child first imports ``imports`` (those it does not share with this process yet), then
+    drops to ``user`` (uid, gid) if given. Whatever it registers or sets stays in the child.
+    ``timeout`` (s) kills it with SIGALRM (status -14).
+    """
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        with warnings.catch_warnings():
+            # pytest-xdist's threads: the child only runs the body and exits
+            warnings.simplefilter("ignore", DeprecationWarning)
+            pid = os.fork()
+        if pid == 0:  # pragma: no cover (the child)
+            status = 1
+            try:
+                if timeout is not None:
+                    signal.signal(signal.SIGALRM, signal.SIG_DFL)
+                    signal.alarm(timeout)
+                for name in imports:
+                    importlib.import_module(name)
+                if user is not None:
+                    os.setgroups([])
+                    os.setgid(user[1])
+                    os.setuid(user[0])
+                os.chdir(cwd)
+                sys.stdout, sys.stderr = out, err
+                body()
+                status = 0
+            except BaseException:  # noqa: BLE001 (reported to the parent, as a traceback)
+                traceback.print_exc(file=err)
+            finally:
+                out.flush()
+                err.flush()
+                os._exit(status)
+        status = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
+        out.seek(0)
+        err.seek(0)
+        return subprocess.CompletedProcess(["<in_fork>"], status, out.read(), err.read())
