@@ -42,6 +42,15 @@ PRIORS = {
 }
 
 #: The path of the first fast trial of :func:`one_condition_study`.
+#: The weight's ideal (textbook) body, appended to the manifest of conftest's ``study_out``.
+STUDY_IDEAL = """
+[bodies.weight.ideal]
+shape = "solid-disk"
+radius = 0.05
+thickness = 0.06
+mass = 2.92
+com_distance = 0.45
+"""
 ONE_CONDITION_FAST = "data/A_240_01.csv"
 
 

@@ -44,3 +44,49 @@ def disk_fit(tmp_path_factory):
     out = tmp_path_factory.mktemp("disk-fit") / "out"
     assert main([*DISK_FIT, "--out", str(out), "--seed", "4", "--formats", "png,pdf"]) == 0
     return out
+
+
+@pytest.fixture(scope="session")
+def study_out(tmp_path_factory):
+    """`inertiafit run` (seed 2) on a simulated study of the attachment and the weight (3 fast
+    trials per speed at 240 and 300 deg/s, the weight's ideal disk declared): its folder, written
+    once per test process. Read it only; copy it to change it.
+
+    Its figures are drawn by figure workers started before the trials are read (as on an idle
+    machine, not the test suite's): every test that reads them checks that path too.
+    """
+    import concurrent.futures
+
+    from cases import PRIORS, STUDY_IDEAL, TRUTH
+
+    from inertiafit.cli import main
+    from inertiafit.report import outputs as outputs_module
+    from inertiafit.simulate import simulate_study
+
+    root = tmp_path_factory.mktemp("rep")
+    manifest = simulate_study(
+        root / "study",
+        bodies=TRUTH,
+        conditions=[("attachment",), ("attachment", "weight")],
+        speeds=(240, 300),
+        trials_per_speed=3,
+        seed=4,
+        priors=PRIORS,
+    )
+    with manifest.open("a") as fh:
+        fh.write(STUDY_IDEAL)
+    out = root / "out"
+    pools = []
+    draw = outputs_module.draw_figures
+
+    def recording(*args, **kwargs):
+        pools.append(kwargs.get("pool"))
+        return draw(*args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(outputs_module, "idle_cores", lambda: 2)
+        mp.setattr(outputs_module, "draw_figures", recording)
+        assert main(["run", str(manifest), "--out", str(out), "--seed", "2"]) == 0
+    assert len(pools) == 1
+    assert isinstance(pools[0], concurrent.futures.ProcessPoolExecutor)
+    return out

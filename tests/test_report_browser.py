@@ -7,7 +7,6 @@ import subprocess
 
 import numpy as np
 import pytest
-from cases import PRIORS, TRUTH
 from matplotlib.image import imread
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -102,22 +101,9 @@ MEASURE = """<script>window.addEventListener('load', function () {
 
 
 @pytest.fixture(scope="module")
-def study_report(tmp_path_factory):
-    from inertiafit.pipeline.study import run_study
-    from inertiafit.simulate import simulate_study
-
-    root = tmp_path_factory.mktemp("study")
-    manifest = simulate_study(
-        root / "study",
-        bodies=TRUTH,
-        conditions=[("attachment",), ("attachment", "weight")],
-        speeds=(240, 300),
-        trials_per_speed=2,
-        seed=3,
-        priors=PRIORS,
-    )
-    run_study(manifest, out=root / "out", seed=1, echo=lambda *a: None, progress=lambda *a: None)
-    return root / "out" / "report.html"
+def study_report(study_out):
+    """report.html of conftest's `inertiafit run` on a simulated two-body study."""
+    return study_out / "report.html"
 
 
 def layout(report, tmp_path, width=1280):

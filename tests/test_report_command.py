@@ -13,7 +13,6 @@ import time
 
 import pandas as pd
 import pytest
-from cases import PRIORS, TRUTH
 
 from inertiafit.cli import main
 from inertiafit.pipeline.redraw import load_result
@@ -23,49 +22,6 @@ from inertiafit.report import figures as figures_module
 from inertiafit.report import outputs as outputs_module
 from inertiafit.report import plots
 from inertiafit.report.figures import FigureRecord, figure_records
-from inertiafit.simulate import simulate_study
-
-IDEAL = """
-[bodies.weight.ideal]
-shape = "solid-disk"
-radius = 0.05
-thickness = 0.06
-mass = 2.92
-com_distance = 0.45
-"""
-
-
-@pytest.fixture(scope="module")
-def study_out(tmp_path_factory):
-    root = tmp_path_factory.mktemp("rep")
-    manifest = simulate_study(
-        root / "study",
-        bodies=TRUTH,
-        conditions=[("attachment",), ("attachment", "weight")],
-        speeds=(240, 300),
-        trials_per_speed=3,
-        seed=4,
-        priors=PRIORS,
-    )
-    with manifest.open("a") as fh:
-        fh.write(IDEAL)
-    out = root / "out"
-    # Drawn by figure workers started before the trials are read (as on an idle machine, not
-    # the test suite's): every test here reads figures that went through that path.
-    pools = []
-    draw = outputs_module.draw_figures
-
-    def recording(*args, **kwargs):
-        pools.append(kwargs.get("pool"))
-        return draw(*args, **kwargs)
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(outputs_module, "idle_cores", lambda: 2)
-        mp.setattr(outputs_module, "draw_figures", recording)
-        assert main(["run", str(manifest), "--out", str(out), "--seed", "2"]) == 0
-    assert len(pools) == 1
-    assert isinstance(pools[0], concurrent.futures.ProcessPoolExecutor)
-    return out
 
 
 def test_run_writes_every_output(study_out):
