@@ -7,6 +7,7 @@ seeded version of it and the outputs of ``inertiafit run`` and ``inertiafit repo
 import json
 import math
 import pickle
+import shutil
 import sys
 import tomllib
 from pathlib import Path
@@ -19,6 +20,8 @@ from inertiafit.pipeline.redraw import load_result
 from inertiafit.posterior import open_posterior
 from inertiafit.processing.living import CURVE_COLUMNS
 from inertiafit.processing.study import LIVING_ROW_FLAG, process_study
+from inertiafit.report import figures as figures_module
+from inertiafit.report import outputs as outputs_module
 from inertiafit.report.figures import figure_records
 from inertiafit.simulate import simulate_living_study
 
@@ -80,7 +83,7 @@ def test_run_writes_the_living_joint(living_run):
     assert "decided by" in page
 
 
-def test_report_redraws_the_living_joint_from_the_folder(living_run):
+def test_report_redraws_the_living_joint_from_the_folder(living_run, tmp_path, monkeypatch):
     _, out = living_run
     result = load_result(out)
     assert set(result.living) == {"passive_parameters", "passive_curve"}
@@ -88,10 +91,25 @@ def test_report_redraws_the_living_joint_from_the_folder(living_run):
     records = figure_records(result)
     assert "passive-curve" in [r.stem for r in records]
     assert [pickle.loads(pickle.dumps(r)).stem for r in records] == [r.stem for r in records]
-    before = (out / "passive_parameters.csv").read_text()
-    assert main(["report", str(out)]) == 0
-    assert (out / "passive_parameters.csv").read_text() == before
-    assert (out / "passive-curve.png").is_file()
+    # redrawn on a copy, the living joint's figure only (run drew every figure already)
+    folder = tmp_path / "out"
+    shutil.copytree(out, folder)
+    (folder / "passive-curve.png").unlink()
+    (folder / "passive_parameters.md").unlink()
+    every = figures_module.figure_records
+    monkeypatch.setattr(
+        outputs_module,
+        "figure_records",
+        lambda res: [r for r in every(res) if r.stem == "passive-curve"],
+    )
+    assert main(["report", str(folder)]) == 0
+    for name in ("passive_parameters.csv", "passive.csv"):
+        assert (folder / name).read_bytes() == (out / name).read_bytes(), name
+    assert (folder / "passive_parameters.md").read_bytes() == (
+        out / "passive_parameters.md"
+    ).read_bytes()
+    assert (folder / "passive-curve.png").is_file()
+    assert "Living joint" in (folder / "report.html").read_text(encoding="utf-8")
 
 
 def test_rigid_study_has_no_living_outputs(tmp_path):
