@@ -33,6 +33,15 @@ settings.load_profile("ci")
 import pytest
 
 
+@pytest.fixture
+def no_figures(monkeypatch):
+    """Commands write every output but the figures: for tests of numbers, tables and messages
+    (every figure is tested in test_plots.py and test_report_command.py)."""
+    from inertiafit.report import outputs
+
+    monkeypatch.setattr(outputs, "figure_records", lambda result: [])
+
+
 @pytest.fixture(scope="session")
 def disk_fit(tmp_path_factory):
     """`inertiafit fit` on the paper's disk (cases.DISK_FIT, seed 4, PNG and PDF): its folder,

@@ -79,7 +79,7 @@ def test_netcdf_round_trip_keeps_every_group_and_the_summary(disk_run):
 
 @pytest.mark.reproducibility
 def test_same_seed_gives_byte_identical_summary_and_fit_prints_the_table(
-    tmp_path, disk_run, capsys
+    tmp_path, disk_run, capsys, no_figures
 ):
     out = tmp_path / "again"
     assert main([*DISK, "--out", str(out), "--seed", "4"]) == 0

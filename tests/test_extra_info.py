@@ -367,7 +367,7 @@ CLI = ["fit", "--prior", "biodex-elbow-attachment", "--inertia", "0.2052", "--in
 CLI += ["--gravity-moment", "6.71", "--gravity-moment-se", "0.02"]
 
 
-def test_cli_fit_with_mass(tmp_path, capsys):
+def test_cli_fit_with_mass(tmp_path, capsys, no_figures):
     assert main([*CLI, "--mass", "2.85", "--mass-sd", "0.005", "--out", str(tmp_path / "o")]) == 0
     summary = pd.read_csv(tmp_path / "o" / "summary.csv").set_index("parameter")
     assert summary.loc["mass", "hdi_upper"] - summary.loc["mass", "hdi_lower"] < 0.03

@@ -18,7 +18,6 @@ from inertiafit.io.outputs import MARKER
 from inertiafit.pipeline.redraw import load_result
 from inertiafit.posterior import open_posterior
 from inertiafit.processing.study import TRIAL_COLUMNS, process_study
-from inertiafit.report import outputs as outputs_module
 from inertiafit.simulate import simulate_study
 
 FLAG = "velocity sign flipped to match d(angle)/dt"
@@ -180,11 +179,9 @@ def _sha256(path):
 
 
 def test_skip_runs_the_study_to_the_end_with_its_inputs_on_record(
-    clean_study, tmp_path, capsys, monkeypatch
+    clean_study, tmp_path, capsys, no_figures
 ):
-    # the tables, report.html and posterior.nc are the point here; no figure is drawn (every
-    # figure is tested in test_report_command.py)
-    monkeypatch.setattr(outputs_module, "figure_records", lambda result: [])
+    # the tables, report.html and posterior.nc are the point here
     folder = _copy(clean_study, tmp_path, "skip")
     _truncate(folder / "data" / "A_240_02.csv")
     out = tmp_path / "out"

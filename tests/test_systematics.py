@@ -282,7 +282,7 @@ def test_sbc_negative_control_leaving_the_systematic_errors_out_fails():
     assert not calibrated(calibration_table(result), ALPHA)
 
 
-def test_fit_from_numbers_carries_a_declared_torque_gain(tmp_path, capsys):
+def test_fit_from_numbers_carries_a_declared_torque_gain(tmp_path, capsys, no_figures):
     from inertiafit.cli import main
     from inertiafit.posterior import open_posterior
 
