@@ -90,38 +90,54 @@ def _exact_gravity(noise):
     return dataclasses.replace(fit, noise=noise) if noise is not None else fit
 
 
-def _exact_curve(rng: np.random.Generator, basis, noise):
+def _static_layout(basis):
+    """The joint static fit of two exact sweeps: the layout every trial's curve shares.
+
+    Only its layout is used (coefficient names, posture, basis, conditions): each trial puts
+    its own truth in (:func:`_exact_curve`), and a fast trial's estimate reads nothing else
+    of the fit. That layout does not depend on the coefficients, so one fit serves every
+    trial (at the prior means; it cost as much as the trials' own estimates).
+    """
+    from inertiafit.processing.living import PostureGeometry, StaticRecord, fit_statics
+
+    coef = {n: m for n, (m, _) in zip(basis.names, basis.priors, strict=True)}
+    h = basis.hysteresis[0]
+    records = []
+    for direction in (1, -1):  # two exact sweeps, up and down
+        theta = np.linspace(0.0, math.radians(90.0), 600)[::direction]
+        passive = sum(c * coef[n] for n, c in zip(basis.names, basis.columns(theta), strict=True))
+        torque = MOMENT * np.sin(theta + PHASE) + OFFSET + passive + h * direction
+        records.append(StaticRecord(theta, torque, "F", "seated", "quasi-static", "sweep"))
+    return fit_statics(records, {"seated": PostureGeometry("seated")}, basis)
+
+
+def _exact_curve(rng: np.random.Generator, basis, noise, layout):
     """A living condition's static curve with coefficients drawn from the prior, exact.
 
-    Returns ``(curve, extra)``: the :class:`StaticCurve` a fast trial subtracts and the
-    joint's torque ``extra(angle, velocity)`` without the damping.
+    ``layout`` is :func:`_static_layout`'s fit. Returns ``(curve, extra)``: the
+    :class:`StaticCurve` a fast trial subtracts and the joint's torque
+    ``extra(angle, velocity)`` without the damping.
     """
-    from inertiafit.processing.living import REST_SPEED, PostureGeometry, StaticRecord, fit_statics
+    from inertiafit.processing.living import REST_SPEED
 
     names = basis.names
     coef = {n: rng.normal(m, s) for n, (m, s) in zip(names, basis.priors, strict=True)}
     h = rng.normal(*basis.hysteresis)
-    postures = {"seated": PostureGeometry("seated")}
-    records = []
-    for direction in (1, -1):  # two exact sweeps: the fit's layout, then the truth put in
-        theta = np.linspace(0.0, math.radians(90.0), 600)[::direction]
-        passive = sum(c * coef[n] for n, c in zip(names, basis.columns(theta), strict=True))
-        torque = MOMENT * np.sin(theta + PHASE) + OFFSET + passive + h * direction
-        records.append(StaticRecord(theta, torque, "F", "seated", "quasi-static", "sweep"))
-    fit = fit_statics(records, postures, basis)
-    truth = fit.coefficients.copy()
-    for i, name in enumerate(fit.names):
+    truth = np.empty(len(layout.names))
+    for i, name in enumerate(layout.names):
         kind = name.partition(":")[0]
         truth[i] = {
             "A": MOMENT * math.cos(PHASE),
             "B": MOMENT * math.sin(PHASE),
             "C": OFFSET,
             "hysteresis": h,
-        }.get(kind, coef.get(name, truth[i]))
+        }.get(kind, coef.get(name, math.nan))
+    if np.isnan(truth).any():  # every coefficient is known: the truth, not a fitted value
+        raise AssertionError(f"no truth for {layout.names}")
     changes = {"coefficients": truth}
     if noise is not None:
         changes["noise"] = {"F": noise}
-    fit = dataclasses.replace(fit, **changes)
+    fit = dataclasses.replace(layout, **changes)
 
     def extra(angle, velocity):
         passive = sum(c * coef[n] for n, c in zip(names, basis.columns(angle), strict=True))
@@ -131,15 +147,18 @@ def _exact_curve(rng: np.random.Generator, basis, noise):
     return fit.curve("F", "seated", 1), extra
 
 
-def scores(speed: float, n: int, seed: int, noise=None) -> dict[str, np.ndarray]:
+def scores(
+    speed: float, n: int, seed: int, noise=None, *, white_only: bool = True
+) -> dict[str, np.ndarray]:
     """z-scores ``(estimate - truth) / SE`` of ``n`` rigid and ``n`` living fast trials.
 
     ``noise`` (a :class:`~inertiafit.simulate.signals.Noise`) for every trial and sweep;
     default the simulator's.
 
     Keys: ``rigid I``, ``living I``, ``living b``; with the drift-aware SEs also the
-    controls ``rigid I, white only``, ``living b, white only`` and ``living I, rigid
-    estimate``.
+    controls ``rigid I, white only``, ``living b, white only`` (``white_only=False`` leaves
+    these two out: they draw nothing, so the other scores are the same) and ``living I,
+    rigid estimate``.
     """
     from inertiafit.processing.inertia import estimate_inertia
     from inertiafit.simulate.signals import simulate_trial
@@ -151,6 +170,7 @@ def scores(speed: float, n: int, seed: int, noise=None) -> dict[str, np.ndarray]
 
     rng = np.random.default_rng([seed, int(speed)])
     basis = elbow_basis()
+    layout = _static_layout(basis)
     out: dict[str, list[float]] = {}
 
     def add(key: str, value: float) -> None:
@@ -173,12 +193,12 @@ def scores(speed: float, n: int, seed: int, noise=None) -> dict[str, np.ndarray]
         )
         est = estimate_inertia(trial, gravity)
         add("rigid I", (est.inertia - inertia) / est.inertia_se)
-        if TorqueNoise is not None:
+        if TorqueNoise is not None and white_only:
             white = TorqueNoise(white_level(trial["torque"].values))
             control = estimate_inertia(trial, gravity, noise=white)
             add("rigid I, white only", (control.inertia - inertia) / control.inertia_se)
 
-        curve, extra = _exact_curve(rng, basis, model)
+        curve, extra = _exact_curve(rng, basis, model, layout)
         inertia = rng.uniform(0.05, 0.6)
         damping = rng.normal(*basis.damping)
         trial = simulate_trial(
@@ -195,9 +215,10 @@ def scores(speed: float, n: int, seed: int, noise=None) -> dict[str, np.ndarray]
         add("living I", (est.inertia - inertia) / est.inertia_se)
         add("living b", (est.damping - damping) / est.damping_se)
         if TorqueNoise is not None:
-            white = TorqueNoise(white_level(trial["torque"].values))
-            control = estimate_inertia(trial, curve, noise=white)
-            add("living b, white only", (control.damping - damping) / control.damping_se)
+            if white_only:
+                white = TorqueNoise(white_level(trial["torque"].values))
+                control = estimate_inertia(trial, curve, noise=white)
+                add("living b, white only", (control.damping - damping) / control.damping_se)
             rigid = estimate_inertia(trial, gravity)
             add("living I, rigid estimate", (rigid.inertia - inertia) / rigid.inertia_se)
     return {key: np.array(values) for key, values in out.items()}

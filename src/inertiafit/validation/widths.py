@@ -1,7 +1,8 @@
 """What the planner predicts, measured: full simulated studies of a design.
 
 :func:`simulated_widths` simulates studies of a :class:`~inertiafit.planning.design.Design`
-as trial files, runs each through :func:`~inertiafit.pipeline.study.analyse_study` and reports
+as trial files, samples each one's posterior as :func:`~inertiafit.pipeline.study.analyse_study`
+does (:func:`~inertiafit.pipeline.study.study_posterior`) and reports
 the posterior widths the planner (:func:`~inertiafit.planning.planner.plan`) predicts without
 them. ``tests/test_plan.py`` and ``benchmarks/plan.py`` compare the two (docs/validation.md).
 """
@@ -36,8 +37,10 @@ def simulated_widths(
 
     ``replicates`` studies are simulated (:func:`~inertiafit.simulate.simulate_study`, trial
     files at 1 kHz with ``noise``, default :meth:`~inertiafit.simulate.Noise.paper`) with the
-    nominal values as the truth, and each runs through
-    :func:`~inertiafit.pipeline.study.analyse_study`. A second mounting is a condition with
+    nominal values as the truth, and each one's posterior is sampled as
+    :func:`~inertiafit.pipeline.study.analyse_study` samples it
+    (:func:`~inertiafit.pipeline.study.study_posterior`: the same draws, without the
+    baselines and tables nothing here reads). A second mounting is a condition with
     its body moved (``offset``); a weighed body or a balance point is written into the
     manifest with the design's SD, its reading drawn from the truth with that SD (a fresh
     draw per study, as a real scale's would be), where :func:`plan` centres it on the truth.
@@ -47,7 +50,7 @@ def simulated_widths(
     Written under ``folder``. Designs with one quasi-static trial per condition and no
     torque-gain SD only (the simulator writes one quasi-static trial and no calibration).
     """
-    from inertiafit.pipeline.study import analyse_study
+    from inertiafit.pipeline.study import study_posterior
     from inertiafit.simulate import Noise, simulate_study
 
     if design.quasi_static_trials != 1:
@@ -87,8 +90,7 @@ def simulated_widths(
             priors=specs,
             measured={b: m for b, m in measured.items() if b in used} or None,
         )
-        result = analyse_study(manifest, seed=seed + r, hdi_prob=hdi_prob)
-        s = result.posterior.summary(hdi_prob)
+        s = study_posterior(manifest, seed=seed + r).summary(hdi_prob)
         s["hdi_width"] = s["hdi_upper"] - s["hdi_lower"]
         s["replicate"] = r
         rows.append(s[["replicate", "body", "parameter", "sd", "hdi_width"]])
