@@ -46,23 +46,25 @@ def _installed_versions() -> dict[str, str]:
     return out
 
 
-def _observation_summary(model: Model) -> xr.Dataset:
-    """Evidence as used: centre, scale and degrees of freedom per condition and observable."""
-    labels = [c.label for c in model.conditions]
-    data = {}
+def _observation_summary(model: Model) -> dict[str, tuple[str, np.ndarray]]:
+    """The evidence as used, as ``name: (dim, values)`` of the ``constant_data`` group.
+
+    Centre, scale and degrees of freedom per condition and observable, and the direct
+    measurements per body (NaN where none).
+    """
+    data: dict[str, tuple[str, np.ndarray]] = {}
+    conds = model.conditions
     for obs_name in ("inertia", "gravity_moment"):
-        rows = [getattr(c, obs_name) for c in model.conditions]
+        rows = [getattr(c, obs_name) for c in conds]
         for field in ("center", "scale", "df", "n", "shared_sd"):
             vals = [float(getattr(o, field)) if o else math.nan for o in rows]
             data[f"{obs_name}_{field}"] = ("condition", np.array(vals))
-    data["coupling"] = ("condition", np.array([c.coupling for c in model.conditions], float))
-    conds = model.conditions
+    data["coupling"] = ("condition", np.array([c.coupling for c in conds], float))
     data["offset"] = ("condition", np.array([c.offset for c in conds], float))
     data["offset_body"] = ("condition", np.array([c.offset_body for c in conds], dtype=str))
     data["added_first_moment"] = ("condition", np.array([c.added_first_moment for c in conds]))
     data["added_inertia"] = ("condition", np.array([c.added_inertia for c in conds], float))
-    out = xr.Dataset(data, coords={"condition": labels})
-    for key, q in MEASURED_QUANTITIES.items():  # direct measurements per body (NaN where none)
+    for key, q in MEASURED_QUANTITIES.items():
         for field, name in zip(("center", "total_scale"), q.constant_vars, strict=True):
             vals = [
                 float(getattr(model.measured[b][key], field))
@@ -70,10 +72,8 @@ def _observation_summary(model: Model) -> xr.Dataset:
                 else math.nan
                 for b in model.bodies
             ]
-            out[name] = xr.DataArray(
-                np.array(vals), dims="body", coords={"body": list(model.bodies)}
-            )
-    return out
+            data[name] = ("body", np.array(vals))
+    return data
 
 
 def _observed(model: Model) -> xr.Dataset:
@@ -207,14 +207,20 @@ def build_tree(
         )
         for key in ("nominal", "lower", "upper")
     }
+    # One constructor: adding variables one at a time (or merging) aligns them each time.
     constant = xr.Dataset(
         {
             **box,
             "gravity": xr.DataArray(model.gravity, attrs={"units": "m s-2"}),
             "torque_gain_sd": xr.DataArray(model.torque_gain_sd, attrs={"units": "1"}),
+            **_observation_summary(model),
         },
-        coords={"body": bodies, "parameter": list(PARAMETERS)},
-    ).merge(_observation_summary(model))
+        coords={
+            "body": bodies,
+            "parameter": list(PARAMETERS),
+            "condition": [c.label for c in model.conditions],
+        },
+    )
     attrs = {
         "inertiafit_version": _versions()["inertiafit"],
         "versions": inputs_json(_versions()),
