@@ -41,7 +41,6 @@ PRIORS = {
     "weight": {"mass": 2.92, "radius_of_gyration": 0.035, "com_distance": 0.45},
 }
 
-#: The path of the first fast trial of :func:`one_condition_study`.
 #: The weight's ideal (textbook) body, appended to the manifest of conftest's ``study_out``.
 STUDY_IDEAL = """
 [bodies.weight.ideal]
@@ -51,6 +50,8 @@ thickness = 0.06
 mass = 2.92
 com_distance = 0.45
 """
+
+#: The path of the first fast trial of :func:`one_condition_study`.
 ONE_CONDITION_FAST = "data/A_240_01.csv"
 
 
