@@ -30,6 +30,10 @@ settings.register_profile(
 settings.load_profile("ci")
 
 
+import os
+import shutil
+from pathlib import Path
+
 import pytest
 
 
@@ -42,24 +46,57 @@ def no_figures(monkeypatch):
     monkeypatch.setattr(outputs, "figure_records", lambda result: [])
 
 
+def once_per_run(tmp_path_factory, name: str, make) -> Path:
+    """``make(folder)``'s folder, made once per test run, shared by pytest-xdist's processes.
+
+    `make test` runs two processes; a session fixture of their own would make each of them
+    write the same folder (a fit of several seconds) when tests of both read it. The first to
+    ask writes it under their common temporary folder, holding a lock; the other waits for it.
+    Only a completed folder is shared: a ``make`` that raised leaves none, and the next to ask
+    tries again (and meets the same error). Run without xdist, or without ``fcntl``: a folder
+    of this process's own.
+    """
+    try:
+        import fcntl
+    except ImportError:  # no POSIX locks: each process writes its own
+        fcntl = None
+    if fcntl is None or "PYTEST_XDIST_WORKER" not in os.environ:
+        folder = tmp_path_factory.mktemp(name)
+        make(folder)
+        return folder
+    root = tmp_path_factory.getbasetemp().parent  # one per run, shared by its workers
+    folder, done = root / name, root / f"{name}.done"
+    with (root / f"{name}.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if not done.exists():
+            shutil.rmtree(folder, ignore_errors=True)  # what an attempt that raised left
+            folder.mkdir()
+            make(folder)
+            done.touch()
+    return folder
+
+
 @pytest.fixture(scope="session")
 def disk_fit(tmp_path_factory):
     """`inertiafit fit` on the paper's disk (cases.DISK_FIT, seed 4, PNG and PDF): its folder,
-    written once per test process. Read it only; copy it to change it."""
+    written once per test run (:func:`once_per_run`). Read it only; copy it to change it."""
     from cases import DISK_FIT
 
     from inertiafit.cli import main
 
-    out = tmp_path_factory.mktemp("disk-fit") / "out"
-    assert main([*DISK_FIT, "--out", str(out), "--seed", "4", "--formats", "png,pdf"]) == 0
-    return out
+    def make(folder):
+        out = folder / "out"
+        assert main([*DISK_FIT, "--out", str(out), "--seed", "4", "--formats", "png,pdf"]) == 0
+
+    return once_per_run(tmp_path_factory, "disk-fit", make) / "out"
 
 
 @pytest.fixture(scope="session")
 def study_out(tmp_path_factory):
     """`inertiafit run` (seed 2) on a simulated study of the attachment and the weight (3 fast
     trials per speed at 240 and 300 deg/s, the weight's ideal disk declared): its folder, written
-    once per test process. Read it only; copy it to change it.
+    once per test run (:func:`once_per_run`; the study beside it, in ``../study``). Read it only;
+    copy it to change it.
 
     Its figures are drawn by figure workers started before the trials are read (as on an idle
     machine, not the test suite's): every test that reads them checks that path too.
@@ -72,30 +109,30 @@ def study_out(tmp_path_factory):
     from inertiafit.report import outputs as outputs_module
     from inertiafit.simulate import simulate_study
 
-    root = tmp_path_factory.mktemp("rep")
-    manifest = simulate_study(
-        root / "study",
-        bodies=TRUTH,
-        conditions=[("attachment",), ("attachment", "weight")],
-        speeds=(240, 300),
-        trials_per_speed=3,
-        seed=4,
-        priors=PRIORS,
-    )
-    with manifest.open("a") as fh:
-        fh.write(STUDY_IDEAL)
-    out = root / "out"
-    pools = []
-    draw = outputs_module.draw_figures
+    def make(root):
+        manifest = simulate_study(
+            root / "study",
+            bodies=TRUTH,
+            conditions=[("attachment",), ("attachment", "weight")],
+            speeds=(240, 300),
+            trials_per_speed=3,
+            seed=4,
+            priors=PRIORS,
+        )
+        with manifest.open("a") as fh:
+            fh.write(STUDY_IDEAL)
+        pools = []
+        draw = outputs_module.draw_figures
 
-    def recording(*args, **kwargs):
-        pools.append(kwargs.get("pool"))
-        return draw(*args, **kwargs)
+        def recording(*args, **kwargs):
+            pools.append(kwargs.get("pool"))
+            return draw(*args, **kwargs)
 
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(outputs_module, "idle_cores", lambda: 2)
-        mp.setattr(outputs_module, "draw_figures", recording)
-        assert main(["run", str(manifest), "--out", str(out), "--seed", "2"]) == 0
-    assert len(pools) == 1
-    assert isinstance(pools[0], concurrent.futures.ProcessPoolExecutor)
-    return out
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(outputs_module, "idle_cores", lambda: 2)
+            mp.setattr(outputs_module, "draw_figures", recording)
+            assert main(["run", str(manifest), "--out", str(root / "out"), "--seed", "2"]) == 0
+        assert len(pools) == 1
+        assert isinstance(pools[0], concurrent.futures.ProcessPoolExecutor)
+
+    return once_per_run(tmp_path_factory, "rep", make) / "out"
