@@ -73,6 +73,7 @@ def test_a_make_that_raised_is_tried_again_on_a_clean_folder(tmp_path, monkeypat
     calls = []
     folder = once_per_run(factory, "shared", lambda f: calls.append(sorted(f.iterdir())))
     assert calls == [[]]  # made again, in an empty folder
+    assert folder == tmp_path / "shared"
     once_per_run(factory, "shared", calls.append)
     assert len(calls) == 1  # then shared
 
@@ -83,4 +84,5 @@ def test_without_xdist_each_call_makes_its_own(tmp_path, monkeypatch):
     made = []
     first = once_per_run(factory, "own", made.append)
     second = once_per_run(factory, "own", made.append)
-    assert made == [first, second] and first != second
+    assert made == [first, second]
+    assert first != second
