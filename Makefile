@@ -26,7 +26,7 @@ demo: $(STAMP)
 
 # The test targets keep Python's bytecode and pytest's rewritten test modules in __pycache__
 # (git ignores it) even where the environment turns that off (PYTHONDONTWRITEBYTECODE, set on
-# this project's machines): each of the suite's two processes otherwise compiles and rewrites
+# the development machine): each of the suite's two processes otherwise compiles and rewrites
 # every test module again on every run (measured: collecting took 11.5 s, and 5.7 s cached).
 test test-fast repro-check fuzz: export PYTHONDONTWRITEBYTECODE :=
 
