@@ -16,6 +16,7 @@ import xarray as xr
 
 from inertiafit.cli import main
 from inertiafit.io.outputs import MARKER
+from inertiafit.pipeline import batch as batch_module
 from inertiafit.pipeline.batch import BATCH_COLUMNS, StudyTask, run_many, run_one, study_names
 from inertiafit.posterior import SUMMARY_COLUMNS
 from inertiafit.simulate import Noise, simulate_study
@@ -151,26 +152,88 @@ def test_batch_summary_stacks_the_study_summaries(serial):
     )
 
 
+#: `inertiafit run` as `pip install inertiafit` installs it: without the `cluster` extra (Dask
+#: hidden: importing it fails), with one BLAS thread as run-many uses. Prints the Dask modules
+#: imported after all (none expected).
+RUN_WITHOUT_DASK = """
+import sys
+sys.modules.update(dask=None, distributed=None)
+from threadpoolctl import threadpool_limits
+from inertiafit.cli import main
+with threadpool_limits(limits=1):
+    code = main(sys.argv[1:])
+print(sorted(m for m, mod in sys.modules.items() if m.startswith(("dask", "distributed")) and mod))
+sys.exit(code)
+"""
+
+
 @pytest.mark.slow
-def test_a_study_folder_is_what_run_writes(serial, studies, tmp_path):
-    """Same seed, same files as `inertiafit run` (with one BLAS thread, as run-many uses)."""
-    from threadpoolctl import threadpool_limits
-
-    from inertiafit.pipeline.study import run_study
-
-    with threadpool_limits(limits=1):
-        run_study(
-            studies[2],
-            out=tmp_path / "run",
-            seed=0,
-            formats=("png",),
-            echo=lambda _m: None,
-            progress=lambda _m: None,
-        )
+def test_a_study_folder_is_what_run_writes_also_without_dask(serial, studies, tmp_path):
+    """Same seed, same files as `inertiafit run` (one BLAS thread, as run-many uses), run
+    where Dask is not installed: the default install works, never imports it, and gives the
+    same numbers as the batch run beside Dask."""
+    out = tmp_path / "run"
+    argv = ["run", str(studies[2]), "--out", str(out), "--formats", "png"]
+    done = subprocess.run(
+        [sys.executable, "-c", RUN_WITHOUT_DASK, *argv],
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "[]"
     batch = serial[0].out / "b-study"
-    assert {p.name for p in batch.iterdir()} == {p.name for p in (tmp_path / "run").iterdir()}
+    assert {p.name for p in batch.iterdir()} == {p.name for p in out.iterdir()}
     for name in ("summary.csv", "trials.csv", "comparison.csv"):
-        assert (batch / name).read_bytes() == (tmp_path / "run" / name).read_bytes(), name
+        assert (batch / name).read_bytes() == (out / name).read_bytes(), name
+    with (
+        xr.open_datatree(out / "posterior.nc") as p,
+        xr.open_datatree(batch / "posterior.nc") as q,
+    ):
+        for var in p["posterior"].data_vars:
+            np.testing.assert_array_equal(p["posterior"][var], q["posterior"][var])
+
+
+def _without_dask(monkeypatch) -> None:
+    """As if the `cluster` extra were not installed: importing dask or distributed fails."""
+    monkeypatch.setitem(sys.modules, "dask", None)
+    monkeypatch.setitem(sys.modules, "distributed", None)
+
+
+def test_without_dask_a_batch_runs_one_study_after_another_and_says_so(
+    studies, tmp_path, monkeypatch
+):
+    _without_dask(monkeypatch)
+    monkeypatch.setattr(batch_module, "_available_cpus", lambda: 4)  # a cluster by default
+    result, lines = _batch([studies[1], studies[1]], tmp_path / "out")  # both fail at once
+    assert lines[0] == (
+        "Dask is not installed (pip install 'inertiafit[cluster]' runs the studies in "
+        "parallel): running them one after another"
+    )
+    assert lines[1] == "running 2 studies one after another in this process"
+    assert result.where == "one after another in this process"
+    assert result.table["status"].tolist() == ["failed", "failed"]
+    assert result.startup_seconds == 0
+
+
+@pytest.mark.parametrize(
+    ("extra", "asked", "local"),
+    [
+        (["--workers", "2"], "--workers: 2", ", or ask for one worker (one study after another)"),
+        (["--scheduler", "tcp://127.0.0.1:8786"], "--scheduler: tcp://127.0.0.1:8786", ""),
+    ],
+    ids=["workers", "scheduler"],
+)
+def test_without_dask_a_cluster_is_one_line_exit_2_naming_the_extra(
+    studies, tmp_path, capsys, monkeypatch, extra, asked, local
+):
+    _without_dask(monkeypatch)
+    out = tmp_path / "out"
+    argv = ["run-many", str(studies[0]), str(studies[2]), "--out", str(out), *extra]
+    assert _one_line_exit_2(argv, capsys, out) == (
+        f"inertiafit: error: {asked}: runs the studies on a Dask cluster, and Dask is not "
+        f"installed; install it with pip install 'inertiafit[cluster]'{local}"
+    )
 
 
 @pytest.mark.slow

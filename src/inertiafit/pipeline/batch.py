@@ -29,11 +29,15 @@ error. Bad arguments (no manifests, a manifest that does not exist, an unreachab
 raise :class:`~inertiafit.errors.InputError` before anything is written. ``out`` is replaced
 whole, as by ``run``.
 
-Dask (``dask``, ``distributed``) is imported only when a cluster is used.
+Dask (``dask``, ``distributed``) is the optional ``cluster`` extra (``pip install
+"inertiafit[cluster]"``), imported only when a cluster is used. Without it, a batch asked for
+no particular ``workers`` runs one study after another in this process (a line says so); a
+``scheduler`` or ``workers`` > 1 is refused, naming the command that installs it.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import math
 import os
@@ -73,6 +77,8 @@ BATCH_COLUMNS = [
 ]
 #: Files of the batch folder that a study folder must not be named after.
 _RESERVED = {"batch.csv", "batch-summary.csv", MARKER}
+#: How to install what a cluster needs (the optional ``cluster`` extra).
+CLUSTER_EXTRA = "pip install 'inertiafit[cluster]'"
 
 
 @dataclass(frozen=True)
@@ -398,6 +404,14 @@ def _check_address(scheduler: str) -> None:
         ) from None
 
 
+def dask_installed() -> bool:
+    """Whether ``dask`` and ``distributed`` (the ``cluster`` extra) can be imported.
+
+    Asked without importing them: importing ``distributed`` alone takes about half a second.
+    """
+    return all(importlib.util.find_spec(name) is not None for name in ("dask", "distributed"))
+
+
 def _stderr(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
@@ -433,6 +447,15 @@ def _check_inputs(
         )
     if scheduler is not None and not str(scheduler).strip():
         raise InputError("scheduler: expected an address such as tcp://host:8786, got ''")
+    if (scheduler is not None or (workers or 1) > 1) and not dask_installed():
+        asked = f"scheduler: {scheduler}" if scheduler is not None else f"workers: {workers}"
+        local = (
+            "" if scheduler is not None else ", or ask for one worker (one study after another)"
+        )
+        raise InputError(
+            f"{asked}: runs the studies on a Dask cluster, and Dask is not installed; "
+            f"install it with {CLUSTER_EXTRA}{local}"
+        )
     if scheduler is not None:
         _check_address(str(scheduler))
     # Checked and claimed before a cluster is started for nothing: out may not hold a manifest
@@ -519,6 +542,12 @@ def run_many(
     names = study_names(paths)
     n_local = min(workers or _available_cpus(), len(paths))
     pool: _Serial | _Dask
+    if scheduler is None and n_local > 1 and not dask_installed():  # workers not asked for
+        say(
+            f"Dask is not installed ({CLUSTER_EXTRA} runs the studies in parallel): "
+            "running them one after another"
+        )
+        n_local = 1
     if scheduler is None and n_local <= 1:
         pool = _Serial()
     else:
