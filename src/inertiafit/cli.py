@@ -327,8 +327,10 @@ class _RunMany(_Command):
         "or failed with the error, seconds, convergence) and batch-summary.csv (every "
         "summary.csv stacked). With --scheduler the studies are tasks on that Dask cluster "
         "(its workers must see the same files); otherwise they run on a local Dask cluster of "
-        "--workers processes, or one after another with --workers 1. A study that fails is "
-        "recorded and the others go on; the exit status is then 1."
+        "--workers processes, or one after another with --workers 1. A cluster needs Dask, the "
+        "optional cluster extra (pip install 'inertiafit[cluster]'); without it the studies "
+        "run one after another. A study that fails is recorded and the others go on; the exit "
+        "status is then 1."
     )
 
     @staticmethod
