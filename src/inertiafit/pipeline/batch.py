@@ -78,7 +78,7 @@ BATCH_COLUMNS = [
 #: Files of the batch folder that a study folder must not be named after.
 _RESERVED = {"batch.csv", "batch-summary.csv", MARKER}
 #: How to install what a cluster needs (the optional ``cluster`` extra).
-CLUSTER_EXTRA = "pip install 'inertiafit[cluster]'"
+_CLUSTER_EXTRA = "pip install 'inertiafit[cluster]'"
 
 
 @dataclass(frozen=True)
@@ -404,7 +404,7 @@ def _check_address(scheduler: str) -> None:
         ) from None
 
 
-def dask_installed() -> bool:
+def _dask_installed() -> bool:
     """Whether ``dask`` and ``distributed`` (the ``cluster`` extra) can be imported.
 
     Asked without importing them: importing ``distributed`` alone takes about half a second.
@@ -447,14 +447,14 @@ def _check_inputs(
         )
     if scheduler is not None and not str(scheduler).strip():
         raise InputError("scheduler: expected an address such as tcp://host:8786, got ''")
-    if (scheduler is not None or (workers or 1) > 1) and not dask_installed():
+    if (scheduler is not None or (workers or 1) > 1) and not _dask_installed():
         asked = f"scheduler: {scheduler}" if scheduler is not None else f"workers: {workers}"
         local = (
             "" if scheduler is not None else ", or ask for one worker (one study after another)"
         )
         raise InputError(
             f"{asked}: runs the studies on a Dask cluster, and Dask is not installed; "
-            f"install it with {CLUSTER_EXTRA}{local}"
+            f"install it with {_CLUSTER_EXTRA}{local}"
         )
     if scheduler is not None:
         _check_address(str(scheduler))
@@ -542,9 +542,9 @@ def run_many(
     names = study_names(paths)
     n_local = min(workers or _available_cpus(), len(paths))
     pool: _Serial | _Dask
-    if scheduler is None and n_local > 1 and not dask_installed():  # workers not asked for
+    if scheduler is None and n_local > 1 and not _dask_installed():  # workers not asked for
         say(
-            f"Dask is not installed ({CLUSTER_EXTRA} runs the studies in parallel): "
+            f"Dask is not installed ({_CLUSTER_EXTRA} runs the studies in parallel): "
             "running them one after another"
         )
         n_local = 1
