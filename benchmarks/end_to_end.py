@@ -186,12 +186,6 @@ def run_command(manifest: Path, out: Path, *, dask: bool = False) -> list[str]:
     return [sys.executable, "-c", code, "run", str(manifest), "--out", str(out)]
 
 
-def dask_installed() -> bool:
-    import importlib.util
-
-    return all(importlib.util.find_spec(m) is not None for m in ("dask", "distributed"))
-
-
 def top_entries(prof_file: Path, n: int) -> list[dict]:
     import pstats
 
@@ -212,6 +206,7 @@ def top_entries(prof_file: Path, n: int) -> list[dict]:
 
 
 def run(*, quick: bool = False, seed: int = 11) -> dict:
+    from inertiafit.pipeline.batch import dask_installed
     from inertiafit.simulate import paper_study
 
     # Interleaved, best of each side. With one of each (``--quick`` before), the verdict
@@ -227,11 +222,12 @@ def run(*, quick: bool = False, seed: int = 11) -> dict:
         if not quick:
             timed_child(run_command(manifest, out))
         runs, floors, with_dask = [], [], []
+        dask = dask_installed()  # installed here: `run` with Dask is timed as well
         for _ in range(repeats):
             floors.append(timed_child(floor_cmd))
             shutil.rmtree(out, ignore_errors=True)
             runs.append(timed_child(run_command(manifest, out)))
-            if dask_installed():
+            if dask:
                 shutil.rmtree(out, ignore_errors=True)
                 with_dask.append(timed_child(run_command(manifest, out, dask=True)))
         outputs = sorted(p.name for p in out.iterdir())

@@ -404,7 +404,7 @@ def _check_address(scheduler: str) -> None:
         ) from None
 
 
-def _dask_installed() -> bool:
+def dask_installed() -> bool:
     """Whether ``dask`` and ``distributed`` (the ``cluster`` extra) can be imported.
 
     Asked without importing them: importing ``distributed`` alone takes about half a second.
@@ -447,7 +447,7 @@ def _check_inputs(
         )
     if scheduler is not None and not str(scheduler).strip():
         raise InputError("scheduler: expected an address such as tcp://host:8786, got ''")
-    if (scheduler is not None or (workers or 1) > 1) and not _dask_installed():
+    if (scheduler is not None or (workers or 1) > 1) and not dask_installed():
         asked = f"scheduler: {scheduler}" if scheduler is not None else f"workers: {workers}"
         local = (
             "" if scheduler is not None else ", or ask for one worker (one study after another)"
@@ -542,7 +542,7 @@ def run_many(
     names = study_names(paths)
     n_local = min(workers or _available_cpus(), len(paths))
     pool: _Serial | _Dask
-    if scheduler is None and n_local > 1 and not _dask_installed():  # workers not asked for
+    if scheduler is None and n_local > 1 and not dask_installed():  # workers not asked for
         say(
             f"Dask is not installed ({_CLUSTER_EXTRA} runs the studies in parallel): "
             "running them one after another"
@@ -635,4 +635,12 @@ def _tables(folder: Path, rows: list[dict[str, Any]]) -> tuple[pd.DataFrame, pd.
     return table, summary
 
 
-__all__ = ["BATCH_COLUMNS", "BatchResult", "StudyTask", "run_many", "run_one", "study_names"]
+__all__ = [
+    "BATCH_COLUMNS",
+    "BatchResult",
+    "StudyTask",
+    "dask_installed",
+    "run_many",
+    "run_one",
+    "study_names",
+]
