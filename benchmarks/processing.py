@@ -5,12 +5,16 @@ ones). The floor is the least any pipeline must do with it: read the same CSV fi
 pandas' C parser and run the zero-lag Butterworth low-pass (``scipy.signal.sosfiltfilt``, the
 same 2nd-order 20 Hz design) over torque and velocity of every trial. Ratio = ours / floor,
 best of several alternating repeats each. Accuracy: every fast trial's inertia against the simulated truth.
+The 2x budget: the floor and our reading of each kind of trial (quasi-static, fast) and the
+gravity fits, timed in the same repeats, and what 2x leaves for each fast trial's processing.
 
 Run:  .venv/bin/python benchmarks/processing.py [--quick] [--json FILE]
 """
 
 from __future__ import annotations
 
+import functools
+import math
 import tempfile
 import tomllib
 from pathlib import Path
@@ -32,6 +36,51 @@ def floor(files: list[Path], rate: float = 1000.0) -> int:
             signal.sosfiltfilt(sos, frame[col].to_numpy(dtype=float))
         n += len(frame)
     return n
+
+
+def read_all(specs: list) -> None:
+    for spec in specs:
+        spec.read()
+
+
+def budget_rows(split: dict, ours: float, floor_total: float) -> tuple[list[dict], str]:
+    """Per kind of trial: the floor, our reading and our processing, and what 2x leaves.
+
+    ``split`` holds best-of times (s) measured in the same alternating loop as the totals:
+    the floor and our reading per kind, and the quasi-static gravity fits. A fast trial's
+    processing is what is left of ``ours`` after reading and the gravity fits.
+    """
+    n = split["count"]
+    read = split["read:quasi-static"] + split["read:fast"]
+    gravity = split["gravity"]
+    fast_work = max(ours - read - gravity, 0.0)
+    rows = []
+    for kind in ("quasi-static", "fast"):
+        work = gravity if kind == "quasi-static" else fast_work
+        rows.append(
+            {
+                "kind": kind,
+                "trials": n[kind],
+                "floor": 1e3 * split[f"floor:{kind}"] / n[kind],
+                "read": 1e3 * split[f"read:{kind}"] / n[kind],
+                "work": 1e3 * work / n[kind],
+            }
+        )
+    allowed = TARGET * floor_total
+    left = (allowed - read - gravity) / n["fast"]
+    spare = (
+        f"leaves {1e3 * left:.2f} ms per fast trial"
+        if left > 0
+        else f"is already {-left * n['fast']:.3f} s over it, with nothing left"
+    )
+    text = (
+        f"{TARGET:g}x the floor allows {allowed:.3f} s. Reading the trials (checks, hashing "
+        f"and the Trial datasets included) takes {read:.3f} s of it and the quasi-static "
+        f"gravity fits {gravity:.3f} s, which {spare} for a fast trial's filtering, lag, "
+        f"window, standard errors and checks; they take {1e3 * fast_work / n['fast']:.2f} ms "
+        "per fast trial now."
+    )
+    return rows, text
 
 
 def stage_profile(manifest: Path) -> list[dict]:
@@ -83,6 +132,8 @@ def stage_profile(manifest: Path) -> list[dict]:
 
 
 def run(*, quick: bool = False, seed: int = 7) -> dict:
+    from inertiafit.io import load_study
+    from inertiafit.processing.gravity import fit_gravity
     from inertiafit.processing.study import process_study
     from inertiafit.simulate import paper_study
 
@@ -94,17 +145,36 @@ def run(*, quick: bool = False, seed: int = 7) -> dict:
         truth = tomllib.loads((Path(tmp) / "truth.toml").read_text())["conditions"]
         process_study(manifest)  # warm-up: imports, page cache
         floor(files)
+        study = load_study(manifest)
+        by_kind = {
+            "quasi-static": [t for t in study.trials if t.kind == "quasi-static"],
+            "fast": [t for t in study.trials if t.kind == "fast"],
+        }
+        sweeps = [t.read() for t in by_kind["quasi-static"]]
+        pieces = {
+            **{
+                f"floor:{k}": functools.partial(floor, [t.file for t in v])
+                for k, v in by_kind.items()
+            },
+            **{f"read:{k}": functools.partial(read_all, v) for k, v in by_kind.items()},
+            "gravity": lambda: [fit_gravity(ds) for ds in sweeps],
+        }
         # Alternating, so a busy moment of the machine hits both sides alike: the floor's
         # best of 3 in a row moved from 0.13 to 0.22 s between runs while ours held still.
         ours_all, floor_all = [], []
+        split = dict.fromkeys(pieces, math.inf)
         for _ in range(repeats):
             ours = best_of(lambda: process_study(manifest), 1)
             low = best_of(lambda: floor(files), 1)
             ours_all.append(ours[0])
             floor_all.append(low[0])
+            for key, piece in pieces.items():
+                split[key] = min(split[key], best_of(piece, 1)[0])
         processed, n_samples = ours[2], low[2]
         ours_s, floor_s = min(ours_all), min(floor_all)
         prof = stage_profile(manifest)
+    split["count"] = {k: len(v) for k, v in by_kind.items()}
+    budget, budget_text = budget_rows(split, ours_s, floor_s)
     trials = processed.trials
     fast = trials[trials["kind"] == "fast"]
     true_i = {lab: cond["inertia"] for lab, cond in truth.items()}
@@ -158,6 +228,20 @@ def run(*, quick: bool = False, seed: int = 7) -> dict:
         "accuracy: mean relative error of the per-trial inertia vs the truth, per condition: "
         + ", ".join(f"{c} {100 * v:+.2f} %" for c, v in rel_means.items())
         + f" (trial-to-trial SD {100 * row['inertia_rel_err_sd']:.1f} %, the simulated scatter)"
+        + "\n\nthe 2x budget, per kind of trial (best of the same alternating repeats; ms per "
+        "trial):\n"
+        + table(
+            [
+                ("kind", "kind", ""),
+                ("trials", "trials", "d"),
+                ("floor", "floor", ".2f"),
+                ("read", "our reading", ".2f"),
+                ("work", "our processing", ".2f"),
+            ],
+            budget,
+        )
+        + "\n"
+        + budget_text
         + "\n\nwhere process_study's time goes (cProfile, cumulative; profiling inflates it):\n"
         + table(
             [("stage", "stage", ""), ("seconds", "seconds", ".3f"), ("share", "share", ".0%")],
@@ -169,6 +253,7 @@ def run(*, quick: bool = False, seed: int = 7) -> dict:
         "title": "3. Trial processing: process_study on paper_study (62 trials, 1 kHz)",
         "rows": [row],
         "profile": prof,
+        "budget": budget,
         "table": text,
         "targets": [
             {
