@@ -39,6 +39,7 @@ def floor(files: list[Path], rate: float = 1000.0) -> int:
 
 
 def read_all(specs: list) -> None:
+    """Our reading of the trials: ``TrialSpec.read`` (checks and the Trial dataset)."""
     for spec in specs:
         spec.read()
 
@@ -76,9 +77,9 @@ def budget_rows(split: dict, ours: float, floor_total: float) -> tuple[list[dict
     text = (
         f"{TARGET:g}x the floor allows {allowed:.3f} s. Reading the trials (checks, hashing "
         f"and the Trial datasets included) takes {read:.3f} s of it and the quasi-static "
-        f"gravity fits {gravity:.3f} s, which {spare} for a fast trial's filtering, lag, "
-        f"window, standard errors and checks; they take {1e3 * fast_work / n['fast']:.2f} ms "
-        "per fast trial now."
+        f"gravity fits {gravity:.3f} s, which {spare} for the filtering, lag, window, "
+        f"standard errors and checks; they take {1e3 * fast_work / n['fast']:.2f} ms per fast "
+        "trial now."
     )
     return rows, text
 
