@@ -44,14 +44,16 @@ def read_all(specs: list) -> None:
         spec.read()
 
 
-def budget_rows(split: dict, ours: float, floor_total: float) -> tuple[list[dict], str]:
+def budget_rows(
+    split: dict[str, float], n: dict[str, int], ours: float, floor_total: float
+) -> tuple[list[dict], str]:
     """Per kind of trial: the floor, our reading and our processing, and what 2x leaves.
 
     ``split`` holds best-of times (s) measured in the same alternating loop as the totals:
-    the floor and our reading per kind, and the quasi-static gravity fits. A fast trial's
-    processing is what is left of ``ours`` after reading and the gravity fits.
+    the floor and our reading per kind, and the quasi-static gravity fits; ``n`` the trials
+    of each kind. A fast trial's processing is what is left of ``ours`` after reading and the
+    gravity fits.
     """
-    n = split["count"]
     read = split["read:quasi-static"] + split["read:fast"]
     gravity = split["gravity"]
     fast_work = max(ours - read - gravity, 0.0)
@@ -174,8 +176,8 @@ def run(*, quick: bool = False, seed: int = 7) -> dict:
         processed, n_samples = ours[2], low[2]
         ours_s, floor_s = min(ours_all), min(floor_all)
         prof = stage_profile(manifest)
-    split["count"] = {k: len(v) for k, v in by_kind.items()}
-    budget, budget_text = budget_rows(split, ours_s, floor_s)
+    counts = {k: len(v) for k, v in by_kind.items()}
+    budget, budget_text = budget_rows(split, counts, ours_s, floor_s)
     trials = processed.trials
     fast = trials[trials["kind"] == "fast"]
     true_i = {lab: cond["inertia"] for lab, cond in truth.items()}
