@@ -89,7 +89,20 @@ PASSIVE_KEYS = (
     "curve_scale",
     "damping",
     "hysteresis",
+    "shape",
+    "shape_size",
+    "shape_width",
+    "hysteresis_slope",
 )
+#: Passive curves outside the model's family (spring, exponential stops, scaled literature
+#: curve), added to ``P`` by :attr:`PassiveTruth.shape` to check that the analysis does not
+#: depend on that family (issue 32). With ``u = (theta_j - mid) / half`` over the joint's
+#: ``range`` and ``w`` its ``shape_width`` (deg), ``shape_size`` (N m) times: ``"cubic"``
+#: ``u**3`` (stiffening towards both ends), ``"tanh"`` ``tanh((theta_j - mid) / w)`` (a
+#: saturating resistance), ``"kink"`` ``max(u, 0)`` (a stiffness that doubles halfway),
+#: ``"bump"`` ``exp(-((theta_j - mid) / w)**2 / 2)`` (a bi-articular muscle going slack and
+#: taut again), ``"none"`` nothing.
+SHAPES = ("none", "cubic", "tanh", "kink", "bump")
 #: Joints with a literature curve whose scale is drawn.
 _CURVED = ("knee", "ankle")
 _DIRECTIONS = ("up", "down")
@@ -139,11 +152,42 @@ class PassiveTruth:
     curve_scale: float
     damping: float
     hysteresis: float
+    shape: str = "none"
+    shape_size: float = 0.0
+    shape_width: float = 20.0
+    hysteresis_slope: float = 0.0
+
+    def _unit(self, theta_j: NDArray) -> tuple[NDArray, float]:
+        """``(theta_j - mid)`` (rad) over :attr:`range`, and its half width (rad)."""
+        lo, hi = np.radians(self.range)
+        return theta_j - 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+    def extra(self, theta_j: ArrayLike) -> NDArray:
+        """The moment (N m) of :attr:`shape` at joint angles ``theta_j`` (rad): :data:`SHAPES`."""
+        dev, half = self._unit(np.asarray(theta_j, dtype=np.float64))
+        u, w = dev / half, math.radians(self.shape_width)
+        curves = {
+            "none": lambda: np.zeros_like(u),
+            "cubic": lambda: u**3,
+            "tanh": lambda: np.tanh(dev / w),
+            "kink": lambda: np.maximum(u, 0.0),
+            "bump": lambda: np.exp(-0.5 * (dev / w) ** 2),
+        }
+        return self.shape_size * curves[self.shape]()
+
+    def hysteresis_at(self, angle: ArrayLike) -> NDArray:
+        """``h(theta_j) = h + hysteresis_slope u`` (N m) at device angles (rad), ``u`` in [-1, 1].
+
+        The direction-dependent moment changing over the range, as a real ankle's does.
+        """
+        theta_j = math.radians(self.joint_angle_at_zero) + np.asarray(angle, dtype=np.float64)
+        dev, half = self._unit(theta_j)
+        return self.hysteresis + self.hysteresis_slope * dev / half
 
     def elastic(self, angle: ArrayLike) -> NDArray:
         """``P`` (N m) at device angles ``angle`` (rad)."""
         theta_j = math.radians(self.joint_angle_at_zero) + np.asarray(angle, dtype=np.float64)
-        return passive_moment(
+        return self.extra(theta_j) + passive_moment(
             theta_j,
             stiffness=self.stiffness,
             relaxed=math.radians(self.relaxed_angle),
@@ -163,7 +207,11 @@ class PassiveTruth:
         alone. This is the ``extra_torque`` of :func:`simulate_trial`.
         """
         omega = np.asarray(velocity, dtype=np.float64)
-        return self.elastic(angle) + self.damping * omega + self.hysteresis * smooth_sign(omega)
+        return (
+            self.elastic(angle)
+            + self.damping * omega
+            + self.hysteresis_at(angle) * smooth_sign(omega)
+        )
 
     @classmethod
     def draw(
@@ -194,6 +242,7 @@ class PassiveTruth:
             msg = f"joint must be one of {', '.join(JOINTS)}, got {joint!r}"
             raise ValueError(msg)
         given = dict(given or {})
+        shape = str(given.pop("shape", "none"))
         unknown = sorted(set(given) - set(PASSIVE_KEYS))
         if unknown:
             msg = f"passive: unknown keys {unknown}; expected some of {', '.join(PASSIVE_KEYS)}"
@@ -217,6 +266,7 @@ class PassiveTruth:
             joint=joint,
             joint_angle_at_zero=float(joint_angle_at_zero),
             range=(lo, hi),
+            shape=shape,
             **values,
         )
         truth.check()
@@ -226,6 +276,9 @@ class PassiveTruth:
         """Raise ``ValueError`` for a value out of its range (see :meth:`draw`)."""
         numbers = dataclasses.asdict(self)
         del numbers["joint"]
+        if numbers.pop("shape") not in SHAPES:
+            msg = f"passive: shape must be one of {', '.join(SHAPES)}, got {self.shape!r}"
+            raise ValueError(msg)
         lo, hi = numbers.pop("range")
         if not all(math.isfinite(v) for v in (*numbers.values(), lo, hi)):
             msg = f"passive: every value must be finite, got {self!r}"
@@ -234,8 +287,11 @@ class PassiveTruth:
             if numbers[key] < 0:
                 msg = f"passive: {key} must be >= 0, got {numbers[key]!r}"
                 raise ValueError(msg)
-        if not (lo < hi and self.stop_width > 0):
-            msg = f"passive: need range lo < hi and stop_width > 0, got {self.range!r}, {self.stop_width!r}"
+        if not (lo < hi and self.stop_width > 0 and self.shape_width > 0):
+            msg = (
+                "passive: need range lo < hi, stop_width > 0 and shape_width > 0, got "
+                f"{self.range!r}, {self.stop_width!r}, {self.shape_width!r}"
+            )
             raise ValueError(msg)
 
     def truth_lines(self) -> list[str]:
@@ -326,6 +382,7 @@ def simulate_living_study(
     sampling: str = "instant",
     priors: Mapping[str, str | Mapping[str, Any]] | None = None,
     passive_prior: Mapping[str, Any] | None = None,
+    declare_stops: bool = True,
     name: str = "Simulated living study",
     emg: EmgSimulation | None = None,
 ) -> Path:
@@ -402,6 +459,10 @@ def simulate_living_study(
     passive_prior : mapping, optional
         Further entries of the manifest's ``[passive]`` table, written as given (overrides of
         the joint's prior, such as ``{"stiffness": {"mean": 1.1, "sd": 0.45}}``).
+    declare_stops : bool
+        Write the true ``range`` and ``stop_width`` into ``[passive]`` (default), as a lab that
+        measured them would; ``False`` leaves them to the joint's prior file, as a lab that
+        did not would, so the stops sit where the analysis does not expect them.
     name : str
         The manifest's ``name``.
     emg : EmgSimulation, optional
@@ -478,7 +539,7 @@ def simulate_living_study(
         time_unit=time_unit,
         living=living,
     )
-    lines += _passive_table(passive_truth, passive_prior)
+    lines += _passive_table(passive_truth, passive_prior, declare_stops=declare_stops)
     for p, (rot, tilt) in design.items():
         lines += [
             f"[postures.{p}]",
@@ -590,14 +651,16 @@ def simulate_living_study(
     return manifest
 
 
-def _passive_table(truth: PassiveTruth, extra: Mapping[str, Any] | None) -> list[str]:
-    """The manifest's ``[passive]`` table: the joint, its zero, the known range and width."""
+def _passive_table(
+    truth: PassiveTruth, extra: Mapping[str, Any] | None, *, declare_stops: bool = True
+) -> list[str]:
+    """The manifest's ``[passive]`` table: the joint, its zero and the known range and width."""
     table: dict[str, Any] = {
         "joint": truth.joint,
         "joint_angle_at_zero": float(truth.joint_angle_at_zero),
-        "range": list(truth.range),
-        "stop_width": float(truth.stop_width),
     }
+    if declare_stops:
+        table |= {"range": list(truth.range), "stop_width": float(truth.stop_width)}
     for key, value in (extra or {}).items():
         if key in table:
             msg = f"passive_prior: {key!r} is written from the truth; give it in passive="
