@@ -123,6 +123,13 @@ def _exact_curve(rng: np.random.Generator, basis, noise, layout):
     names = basis.names
     coef = {n: rng.normal(m, s) for n, (m, s) in zip(names, basis.priors, strict=True)}
     h = rng.normal(*basis.hysteresis)
+    smooth = getattr(layout, "smooth", None)  # the passive curve's smooth part, if any
+    slope, beta = 0.0, np.zeros(0)
+    if smooth is not None:  # from its prior too: a grid point, then the coefficients
+        slope = rng.normal(0.0, basis.hysteresis[1])
+        amplitude, length = smooth.grid[rng.integers(len(smooth.grid))]
+        beta = rng.normal(0.0, np.sqrt(smooth.variances(amplitude, length)))
+        coef |= dict(zip(smooth.names, beta, strict=True)) | {"hysteresis_slope": slope}
     truth = np.empty(len(layout.names))
     for i, name in enumerate(layout.names):
         kind = name.partition(":")[0]
@@ -142,7 +149,11 @@ def _exact_curve(rng: np.random.Generator, basis, noise, layout):
     def extra(angle, velocity):
         passive = sum(c * coef[n] for n, c in zip(names, basis.columns(angle), strict=True))
         moving = np.where(np.abs(velocity) > REST_SPEED, np.sign(velocity), 0.0)
-        return passive + h * moving
+        if smooth is None:
+            return passive + h * moving
+        joint = basis.zero + np.asarray(angle, dtype=float)
+        passive = passive + np.column_stack(smooth.columns(joint)) @ beta
+        return passive + (h + slope * smooth.unit(joint)) * moving
 
     return fit.curve("F", "seated", 1), extra
 

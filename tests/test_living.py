@@ -4,6 +4,7 @@ The sweeps are built here from the model of ``processing/living.py``'s docstring
 truth; the whole pipeline on simulated living studies is tested in test_living_study.py.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -17,6 +18,7 @@ from inertiafit.processing.inertia import estimate_inertia
 from inertiafit.processing.living import (
     PassiveBasis,
     PostureGeometry,
+    SmoothPassive,
     StaticRecord,
     design_statics,
     fit_statics,
@@ -37,6 +39,8 @@ BASIS = PassiveBasis(
     damping=(0.1, 0.1),
 )
 GRAVITY_MOMENT, PHI = 2.2, 0.3
+#: The prior file's shape alone (``[passive] curve = "fixed"``).
+FIXED = dataclasses.replace(BASIS, smooth=False)
 
 
 def _truth(rng):
@@ -92,30 +96,41 @@ HORIZONTAL = {
 
 
 @pytest.mark.parametrize(
-    ("postures", "pinned"), [(ONE, "passive prior"), (TWO, "a second posture")]
+    ("postures", "basis", "pinned"),
+    [
+        (ONE, FIXED, "passive prior"),
+        (ONE, BASIS, "passive prior"),
+        (TWO, BASIS, "a second posture"),
+    ],
+    ids=["one posture, fixed curve", "one posture, smooth curve", "two postures, smooth curve"],
 )
-def test_gravity_moment_is_calibrated_and_the_rigid_fit_is_not(postures, pinned):
-    # 40 studies with random passive joints: the z-scores of M_g are standard normal within
-    # their Monte Carlo error (mean +- 3/sqrt(40), SD within a chi-square 99.9% band), and
-    # the 95 % intervals cover 90-100 %; the rigid fit of the same sweeps (negative control)
-    # covers the truth in fewer than 60 %.
+def test_gravity_moment_is_calibrated_and_the_rigid_fit_is_not(postures, basis, pinned):
+    # 40 studies with random passive joints of the fixed curve's family: the z-scores of M_g
+    # are standard normal within their Monte Carlo error (mean +- 3/sqrt(40), SD within a
+    # chi-square 99.9% band), and the 95 % intervals cover 90-100 %; the rigid fit of the same
+    # sweeps (negative control) covers the truth in fewer than 60 %. With one posture and the
+    # smooth curve no data tell gravity from the curve: the intervals are wide (z SD below
+    # 0.6) and cover.
     rng = np.random.default_rng(20261125)
     z, rigid = [], []
     for _ in range(40):
         t = _truth(rng)
         records = _study(rng, postures, t)
-        fit = fit_statics(records, postures, BASIS).gravity_fit("forearm")
+        fit = fit_statics(records, postures, basis).gravity_fit("forearm")
         z.append((fit.gravity_moment - GRAVITY_MOMENT) / fit.gravity_moment_se)
         coef, cov, _, _ = fit_gravity_arrays(records[0].angle, records[0].torque)
         moment = math.hypot(coef[0], coef[1])
         g_m = np.array([coef[0], coef[1], 0.0]) / moment
         rigid.append((moment - GRAVITY_MOMENT) / math.sqrt(g_m @ cov @ g_m))
     z = np.array(z)
-    assert abs(z.mean()) < 3.0 / math.sqrt(z.size)
-    assert 0.6 < z.std() < 1.45
     assert np.mean(np.abs(z) < 1.96) >= 0.9
     assert np.mean(np.abs(rigid) < 1.96) < 0.6
-    said = fit_statics(_study(rng, postures, _truth(rng)), postures, BASIS).pinned_by("forearm")
+    if postures is ONE and basis.smooth:
+        assert z.std() < 0.6
+    else:
+        assert abs(z.mean()) < 3.0 / math.sqrt(z.size)
+        assert 0.6 < z.std() < 1.45
+    said = fit_statics(_study(rng, postures, _truth(rng)), postures, basis).pinned_by("forearm")
     assert pinned in said
 
 
@@ -189,20 +204,29 @@ def test_fast_trial_of_a_living_body_gives_inertia_and_damping():
     assert abs(rigid.inertia - inertia) > 5 * abs(est.inertia - inertia)
 
 
-def _sbc_ranks(postures, model_postures, n_studies, rng, *, rigid=False):
+def _sbc_ranks(postures, n_studies, rng, *, truth=BASIS, model=BASIS, rigid=False):
     """Posterior CDF of the true M_g over studies whose passive joints come from the prior.
 
     Simulation-based calibration of the static fit: every coefficient the fit integrates out
-    (stiffness, the four stop moments, the hysteresis, each posture's rotation) is drawn from
-    its prior, the sweeps from the model itself with white noise; the true ``M_g`` from a
-    wide range (its prior in the fit is flat). Under a calibrated fit ``Phi(z)`` is uniform.
+    (stiffness, the four stop moments, the hysteresis, each posture's rotation and, for a
+    smooth curve, the hysteresis' slope and the smooth part: a grid point of its hyperprior,
+    then its coefficients) is drawn from ``truth``'s prior, the sweeps from the model itself
+    with white noise; the true ``M_g`` from a wide range (its prior in the fit is flat).
+    Under a calibrated fit (``model``) ``Phi(z)`` is uniform.
     """
     ranks = []
     names = BASIS.names
+    sweep = np.linspace(0.0, math.radians(90.0), 3000)
+    smooth = SmoothPassive.over(BASIS.zero + sweep[0], BASIS.zero + sweep[-1])
     for _ in range(n_studies):
         moment, phase = rng.uniform(1.0, 4.0), rng.uniform(-0.5, 0.5)
         coef = {n: rng.normal(m, s) for n, (m, s) in zip(names, BASIS.priors, strict=True)}
         h = rng.normal(*BASIS.hysteresis)
+        slope, beta = 0.0, np.zeros(smooth.functions)
+        if truth.smooth:
+            slope = rng.normal(0.0, BASIS.hysteresis[1])
+            amplitude, length = smooth.grid[rng.integers(len(smooth.grid))]
+            beta = rng.normal(0.0, np.sqrt(smooth.variances(amplitude, length)))
         records = []
         for name, posture in postures.items():
             first = name == next(iter(postures))
@@ -214,14 +238,16 @@ def _sbc_ranks(postures, model_postures, n_studies, rng, *, rigid=False):
                 )
             )
             for direction in (1, -1):
-                theta = np.linspace(0.0, math.radians(90.0), 3000)[::direction]
-                passive = sum(
-                    coef[n] * col for n, col in zip(names, BASIS.columns(theta), strict=True)
+                theta = sweep[::direction]
+                joint = BASIS.zero + theta
+                passive = (
+                    sum(coef[n] * col for n, col in zip(names, BASIS.columns(theta), strict=True))
+                    + np.column_stack(smooth.columns(joint)) @ beta
                 )
                 torque = (
                     math.cos(posture.tilt) * moment * np.sin(theta + phase + rotation)
                     + passive
-                    + h * direction
+                    + (h + slope * smooth.unit(joint)) * direction
                     + rng.normal(0.0, 0.05, theta.size)
                 )
                 records.append(StaticRecord(theta, torque, "F", name, "quasi-static", "x"))
@@ -231,21 +257,29 @@ def _sbc_ranks(postures, model_postures, n_studies, rng, *, rigid=False):
             g_m = np.array([coef3[0], coef3[1], 0.0]) / m
             ranks.append(float(stats.norm.cdf((moment - m) / math.sqrt(g_m @ cov @ g_m))))
             continue
-        fit = fit_statics(records, model_postures, BASIS).gravity_fit("F")
+        fit = fit_statics(records, postures, model).gravity_fit("F")
         ranks.append(float(stats.norm.cdf((moment - fit.gravity_moment) / fit.gravity_moment_se)))
     return np.array(ranks)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("postures", [ONE, TWO], ids=["one posture", "two postures"])
-def test_simulation_based_calibration_of_the_static_fit(postures):
-    # 200 studies: the ranks pass a Kolmogorov-Smirnov test of uniformity at the 0.1 % level;
-    # the negative control, the rigid fit of the same kind of data, fails it by far.
+@pytest.mark.parametrize(
+    ("postures", "basis"),
+    [(ONE, BASIS), (TWO, BASIS), (ONE, FIXED)],
+    ids=["one posture", "two postures", "one posture, fixed curve"],
+)
+def test_simulation_based_calibration_of_the_static_fit(postures, basis):
+    # 150 studies: the ranks pass a Kolmogorov-Smirnov test of uniformity at the 0.1 % level;
+    # the negative controls fail it by far: the rigid fit of the same kind of data, and (for
+    # the smooth curve) the fixed curve's fit of joints whose curves have a smooth part.
     rng = np.random.default_rng(19)
-    ranks = _sbc_ranks(postures, postures, 200, rng)
+    ranks = _sbc_ranks(postures, 150, rng, truth=basis, model=basis)
     assert stats.kstest(ranks, "uniform").pvalue > 1e-3
-    control = _sbc_ranks(postures, postures, 60, rng, rigid=True)
+    control = _sbc_ranks(postures, 60, rng, truth=basis, rigid=True)
     assert stats.kstest(control, "uniform").pvalue < 1e-6
+    if basis.smooth:
+        fixed = _sbc_ranks(postures, 60, rng, truth=basis, model=FIXED)
+        assert stats.kstest(fixed, "uniform").pvalue < 1e-4
 
 
 def test_a_living_fast_trial_cut_before_its_deceleration_is_one_line():
@@ -266,19 +300,22 @@ def test_a_living_fast_trial_cut_before_its_deceleration_is_one_line():
     assert "\n" not in str(err.value)
 
 
+@pytest.mark.parametrize("basis", [BASIS, FIXED], ids=["smooth curve", "fixed curve"])
 @pytest.mark.parametrize(
     ("postures", "pinned"),
     [(ONE, "passive prior"), (TWO, "a second posture"), (HORIZONTAL, "the horizontal plane")],
     ids=["one posture", "two postures", "horizontal plane"],
 )
-def test_the_design_predicts_the_fitted_standard_error(postures, pinned):
+def test_the_design_predicts_the_fitted_standard_error(postures, pinned, basis):
     # the planner's prediction (no data) against the SEs and the errors of 20 fitted studies
     # of that design: within 15 % (the SE of an SD over 20 studies is 16 %; the SEs agree
-    # far better), and the same verdict on what decides M_g
+    # far better), and the same verdict on what decides M_g. The joints here follow the
+    # fixed curve's family: the smooth curve, which does not assume so, is wider than their
+    # errors' scatter (never narrower: the SD of the errors within 35 % above the SE).
     rng = np.random.default_rng(11)
     ses, errors, rigid = [], [], []
     for _ in range(20):
-        fit = fit_statics(_study(rng, postures, _truth(rng)), postures, BASIS)
+        fit = fit_statics(_study(rng, postures, _truth(rng)), postures, basis)
         ses.append(fit.gravity_fit("forearm").gravity_moment_se)
         errors.append(fit.gravity_fit("forearm").gravity_moment - GRAVITY_MOMENT)
         theta = np.linspace(0.0, math.pi / 2, 6000)
@@ -287,9 +324,15 @@ def test_the_design_predicts_the_fitted_standard_error(postures, pinned):
         g_m = np.array([coef[0], coef[1], 0.0]) / math.hypot(coef[0], coef[1])
         rigid.append(math.sqrt(g_m @ cov @ g_m))
     design = design_statics(
-        GRAVITY_MOMENT, list(postures.values()), BASIS, rigid_se=float(np.mean(rigid)), phase=PHI
+        GRAVITY_MOMENT, list(postures.values()), basis, rigid_se=float(np.mean(rigid)), phase=PHI
     )
     predicted = design.gravity_fit("living").gravity_moment_se
-    assert predicted == pytest.approx(math.sqrt(np.mean(np.square(ses))), rel=0.15)
-    assert predicted == pytest.approx(np.std(errors), rel=0.35)
+    # with one posture and the smooth curve the SE depends on how much of a smooth part the
+    # joint's curve shows, which a design takes at the passive prior's mean (none): 25 %
+    within = 0.25 if postures is ONE and basis.smooth else 0.15
+    assert predicted == pytest.approx(math.sqrt(np.mean(np.square(ses))), rel=within)
+    if basis.smooth:
+        assert np.std(errors) < 1.35 * predicted
+    else:
+        assert predicted == pytest.approx(np.std(errors), rel=0.35)
     assert design.pinned_by("living").startswith(pinned)

@@ -10,6 +10,7 @@ from inertiafit.inference.priors import available_priors
 from inertiafit.io import PassivePrior, Posture, load_passive_prior, load_study, shipped_dirs
 from inertiafit.io.shipped import PASSIVE_ENTRIES
 from inertiafit.passive import JOINTS
+from inertiafit.processing.living import passive_basis
 from inertiafit.simulate.study import simulate_study
 
 BODIES = """\
@@ -106,6 +107,7 @@ def test_a_living_manifest_loads_with_its_passive_prior_postures_and_trials(fold
     assert passive.damping == (0.1, 0.1)
     assert passive.hysteresis == (0.05, 0.1)
     assert passive.curve_scale is None  # the elbow has no literature curve
+    assert passive.curve == "smooth"  # shaped by the data unless curve = "fixed"
     assert passive.sources["stiffness"] == "manifest"
     assert passive.sources["range"] == "manifest"
     shipped = load_passive_prior("elbow")["stiffness"]
@@ -153,6 +155,17 @@ def test_knee_prior_keeps_the_shipped_sources_and_its_curve(folder):
     assert "from abstracts" in passive.sources["damping"]
     assert passive.range == (0.0, 120.0)
     assert "Riener & Edrich 1999" in load_passive_prior("knee")["curve_scale"]["source"]
+
+
+def test_the_fixed_passive_curve_is_chosen_by_name(folder):
+    text = VALID.replace(
+        "joint_angle_at_zero = 90\n", 'joint_angle_at_zero = 90\ncurve = "fixed"\n'
+    )
+    passive = load(folder, text).passive
+    assert passive is not None
+    assert passive.curve == "fixed"
+    assert not passive_basis(passive).smooth
+    assert passive_basis(load(folder, VALID).passive).smooth
 
 
 def test_without_postures_a_trial_has_none(folder):
@@ -211,7 +224,13 @@ BAD = {
     ),
     "unknown key in [passive]": (
         VALID.replace("joint_angle_at_zero = 90\n", "joint_angle_at_zero = 90\nstiff = 1\n"),
-        r"passive\.stiff: unknown key \(allowed: joint, joint_angle_at_zero, stiffness,",
+        r"passive\.stiff: unknown key \(allowed: joint, joint_angle_at_zero, curve, stiffness,",
+    ),
+    "unknown passive curve": (
+        VALID.replace(
+            "joint_angle_at_zero = 90\n", 'joint_angle_at_zero = 90\ncurve = "spline"\n'
+        ),
+        r"passive\.curve: expected \"smooth\" \(shaped by the data\) or \"fixed\" .*got 'spline'",
     ),
     "unknown key in a posture": (
         VALID.replace("axis_tilt = 90\n", "axis_tilt = 90\ntilt = 3\n"),

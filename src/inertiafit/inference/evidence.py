@@ -208,7 +208,12 @@ def condition_evidence(processed: ProcessedStudy) -> list[Condition]:
             )
         obs_g = None
         coupling = 0.0
-        if label in processed.gravity:
+        living = processed.living
+        if living is not None and label in living.conditions and not living.gravity_identified:
+            # one posture and a smooth passive curve: no M_g measured, the priors decide it
+            if obs_i is not None and label in processed.living_coupling:
+                obs_i = obs_i.with_shared_error(processed.living_coupling[label][1])
+        elif label in processed.gravity:
             g = processed.gravity[label]
             obs_g = Observation.from_mean_se(
                 g.gravity_moment, g.gravity_moment_se, where=f"{where} gravity moment"

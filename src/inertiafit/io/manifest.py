@@ -184,7 +184,10 @@ TOP_KEYS = (
 BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES, "living")
 #: Keys of the ``[passive]`` table: the living body's joint, where the device's zero sits on it,
 #: and overrides of the joint's shipped prior (``priors/passive/<joint>.toml``).
-PASSIVE_KEYS = ("joint", "joint_angle_at_zero", *PASSIVE_ENTRIES)
+PASSIVE_KEYS = ("joint", "joint_angle_at_zero", "curve", *PASSIVE_ENTRIES)
+#: ``[passive] curve``: the passive curve shaped by the data around the prior file's (a smooth
+#: part, the default) or the prior file's fixed shape alone (to compare with).
+PASSIVE_CURVES = ("smooth", "fixed")
 #: Keys of a ``[postures.<name>]`` table (deg).
 POSTURE_KEYS = ("gravity_rotation", "gravity_rotation_sd", "axis_tilt")
 #: A posture's ``gravity_rotation_sd`` (deg) when the manifest gives none.
@@ -309,6 +312,9 @@ class PassivePrior:
     sources : dict of str to str
         Entry -> where its number comes from: the prior file's citation, or ``"manifest"``
         for an override.
+    curve : {"smooth", "fixed"}
+        ``"smooth"`` (default): the curve of the prior file plus a smooth part shaped by the
+        data (a Gaussian process in the joint angle); ``"fixed"``: the prior file's shape alone.
     """
 
     joint: str
@@ -321,6 +327,7 @@ class PassivePrior:
     damping: tuple[float, float]
     hysteresis: tuple[float, float]
     sources: dict[str, str] = field(default_factory=dict)
+    curve: str = "smooth"
 
 
 @dataclass(frozen=True)
@@ -1077,6 +1084,13 @@ def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:
             f"only the joints with a literature curve have one ({', '.join(CURVE_JOINTS)}), "
             f"not '{joint}'",
         )
+    curve = table.get("curve", "smooth")
+    if curve not in PASSIVE_CURVES:
+        raise _fail(
+            f"{here}.curve",
+            f'expected "smooth" (shaped by the data) or "fixed" (the prior file\'s shape), '
+            f"got {curve!r}",
+        )
     shipped = load_passive_prior(joint)
     values: dict[str, Any] = {}
     sources: dict[str, str] = {}
@@ -1089,7 +1103,9 @@ def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:
             sources[key] = shipped[key]["source"]
         else:  # curve_scale of a joint without a curve
             values[key] = None
-    return PassivePrior(joint=joint, joint_angle_at_zero=at_zero, sources=sources, **values)
+    return PassivePrior(
+        joint=joint, joint_angle_at_zero=at_zero, sources=sources, curve=curve, **values
+    )
 
 
 def _postures(value: object, *, where: str) -> dict[str, Posture]:

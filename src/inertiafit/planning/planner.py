@@ -75,12 +75,14 @@ def reported_values(
     }
 
 
-def _living_gravity_se(design: Design, moment: float, rigid_se: float) -> float:
-    """A living condition's ``M_g`` SE, predicted without data.
+def _living_gravity_se(design: Design, moment: float, rigid_se: float) -> float | None:
+    """A living condition's ``M_g`` SE, predicted without data (``None``: not measured).
 
     The joint fit of gravity and the passive curve that the design's sweeps, rest trials and
     postures would give (:func:`~inertiafit.processing.living.design_statics`; the gravity
-    phase taken as 0), at the noise that gives one rigid sweep the SE ``rigid_se``.
+    phase taken as 0), at the noise that gives one rigid sweep the SE ``rigid_se``. With one
+    posture and a smooth passive curve the data do not measure ``M_g``
+    (:attr:`~inertiafit.processing.living.LivingStatics.gravity_identified`).
     """
     postures = design.postures or (PostureGeometry("reference"),)
     statics = design_statics(
@@ -91,6 +93,8 @@ def _living_gravity_se(design: Design, moment: float, rigid_se: float) -> float:
         sweeps=design.quasi_static_trials,
         rest_trials=design.rest_trials,
     )
+    if not statics.gravity_identified:
+        return None
     return statics.gravity_fit("living").gravity_moment_se
 
 
@@ -119,11 +123,16 @@ def design_model(
         n = design.trials_per_speed * len(design.speeds)
         sd = noise.trial_sd(mount, total_b, design.speeds)
         obs_i = Observation(total_b, sd / math.sqrt(n), n - 1.0, n)
+        se: float | None
         if design.holds_living(mount):
             se = _living_gravity_se(design, moment, noise.gravity_se(mount))
         else:
             se = noise.gravity_se(mount) / math.sqrt(design.quasi_static_trials)
-        obs_g = Observation.from_mean_se(moment, se, where=f"{mount.label} M_g")
+        obs_g = (
+            None
+            if se is None
+            else Observation.from_mean_se(moment, se, where=f"{mount.label} M_g")
+        )
         pilot = noise.pilot(mount)
         coupling = 0.0
         if pilot is not None:

@@ -48,12 +48,14 @@ at the middle of the swept range.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+import scipy.linalg
 from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
@@ -79,8 +81,10 @@ __all__ = [
     "LivingStatics",
     "PassiveBasis",
     "PostureGeometry",
+    "SmoothPassive",
     "StaticCurve",
     "StaticRecord",
+    "TrialCheck",
     "design_statics",
     "fit_statics",
     "living_tables",
@@ -101,6 +105,34 @@ LEVERAGE_DATA = 1.15
 #: Speed (rad/s) below which a fast trial's shaft counts as at rest for the hysteresis
 #: (0.5 deg/s: half a quasi-static sweep's speed, far below any fast trial's).
 REST_SPEED = math.radians(0.5)
+#: The smooth part of the passive curve (:class:`SmoothPassive`): its amplitude's grid (N m)
+#: and its length-scale's (deg), each point equally likely before the data (log-uniform
+#: hyperpriors: a hundredth of a N m, nothing the data could see, to 10 N m, more than a
+#: relaxed elbow's whole passive moment and a fifth of the knee's at full extension; a stop's
+#: e-folding width to beyond the whole range).
+SMOOTH_AMPLITUDES = (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
+SMOOTH_LENGTHS_DEG = (8.0, 14.0, 25.0, 45.0, 80.0)
+#: The basis' domain is this many times the swept half range (the Hilbert-space
+#: approximation's boundary factor: the curve is free over the sweeps and a margin beyond).
+SMOOTH_BOUNDARY = 2.0
+#: Basis functions at least and at most (Riutort-Mayol et al. 2023's rule in between).
+SMOOTH_FUNCTIONS = (8, 40)
+#: Posterior weight on the grid's largest amplitude beyond which a study is told the passive
+#: curve needed all the freedom the prior allows.
+SMOOTH_EDGE_WEIGHT = 0.5
+#: The fit's check of a trial (:class:`TrialCheck`): a sweep's residual smoothed over its
+#: angles by Legendre polynomials of degrees 2 to this (0 and 1, a trial's own offset and a
+#: drift linear in time, are not the static model's to explain)...
+CHECK_DEGREE = 8
+#: ... is structure the model left when its RMS exceeds this (N m) ...
+CHECK_TOLERANCE = 0.05
+#: ... and this many times what the trial's white noise leaves in the same projection; a
+#: rest hold's mean residual likewise against its standard error.
+CHECK_RATIO = 5.0
+#: The smallest noise variance of a trial's block mean (N^2 m^2): a hundred-thousandth of a
+#: N m, far below any dynamometer's resolution, so exact (simulated) sweeps keep the
+#: regression well conditioned.
+_NOISE_FLOOR = 1e-10
 #: Gauss-Newton iterations of the rotations and the noise weights, at most.
 _ITERATIONS = 30
 #: Convergence of the rotations (rad) and of the weights (relative).
@@ -124,7 +156,10 @@ class PassiveBasis:
     Angles in rad: ``zero`` is the joint angle at the device's 0, ``range_low`` and
     ``range_high`` the joint angles of the end stops, ``width`` their e-folding width.
     ``damping`` is the viscous damping's prior, shown beside the fast trials' estimate (which
-    the data decide: the two windows of every fast trial).
+    the data decide: the two windows of every fast trial). ``smooth``: the curve has a
+    smooth part shaped by the data besides these columns (:class:`SmoothPassive`; the
+    manifest's ``[passive] curve = "smooth"``, the default), or these columns alone
+    (``"fixed"``, the model before issue 32, kept to compare with).
     """
 
     joint: str
@@ -137,6 +172,7 @@ class PassiveBasis:
     hysteresis: tuple[float, float]
     curve_scale: tuple[float, float] | None = None
     damping: tuple[float, float] = (math.nan, math.nan)
+    smooth: bool = True
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -180,6 +216,76 @@ class PassiveBasis:
 
 
 @dataclass(frozen=True)
+class SmoothPassive:
+    """The passive curve's smooth part: a Gaussian process in the joint angle, as a basis.
+
+    ``f(theta_j) = sum_m beta_m phi_m(theta_j)`` with ``phi_m`` the Laplacian's
+    eigenfunctions on ``[centre - L, centre + L]`` (``L`` = :data:`SMOOTH_BOUNDARY` times the
+    swept half range), ``sqrt(1/L) sin(m pi (theta_j - centre + L) / (2 L))``, and
+    ``beta_m ~ N(0, S(m pi / (2 L)))``, ``S`` the spectral density of a squared-exponential
+    kernel of amplitude ``a`` and length-scale ``l``: ``a^2 sqrt(2 pi) l exp(-(l w)^2 / 2)``
+    (the Hilbert-space approximation of Solin & Sarkka 2020, Stat Comput 30:419; the number
+    of functions by Riutort-Mayol et al. 2023, Stat Comput 33:17). Linear in ``beta``: the
+    fit stays a Gaussian regression for every ``(a, l)``, and the grid :attr:`grid` is
+    integrated over by the evidence of each point (:func:`fit_statics`).
+
+    ``centre`` and ``half_range`` are joint angles (rad); ``lengths`` in rad, ``amplitudes``
+    in N m. The slope of the hysteresis over the range uses the same ``centre`` and
+    ``half_range`` (:meth:`unit`).
+    """
+
+    centre: float
+    half_range: float
+    functions: int
+    amplitudes: tuple[float, ...] = SMOOTH_AMPLITUDES
+    lengths: tuple[float, ...] = tuple(math.radians(v) for v in SMOOTH_LENGTHS_DEG)
+
+    @classmethod
+    def over(cls, low: float, high: float) -> SmoothPassive:
+        """The smooth part over joint angles ``low`` to ``high`` (rad), the swept range."""
+        half = max(0.5 * (high - low), math.radians(1.0))
+        lengths = tuple(math.radians(v) for v in SMOOTH_LENGTHS_DEG)
+        need = math.ceil(1.75 * SMOOTH_BOUNDARY * half / min(lengths))
+        lo, hi = SMOOTH_FUNCTIONS
+        return cls(0.5 * (low + high), half, int(min(max(need, lo), hi)), lengths=lengths)
+
+    @property
+    def half_width(self) -> float:
+        """``L`` (rad), the basis' half domain."""
+        return SMOOTH_BOUNDARY * self.half_range
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The coefficients ``smooth:1`` ... ``smooth:M``."""
+        return tuple(f"smooth:{m}" for m in range(1, self.functions + 1))
+
+    @property
+    def grid(self) -> list[tuple[float, float]]:
+        """Every ``(amplitude, length)`` of the hyperprior, equally likely a priori."""
+        return [(a, ell) for a in self.amplitudes for ell in self.lengths]
+
+    def unit(self, theta_j: NDArray) -> NDArray:
+        """``(theta_j - centre) / half_range``: -1 to 1 over the sweeps."""
+        return (np.asarray(theta_j, dtype=np.float64) - self.centre) / self.half_range
+
+    def columns(self, theta_j: NDArray) -> list[NDArray]:
+        """``phi_m`` at joint angles ``theta_j`` (rad); 0 beyond the domain."""
+        ell = self.half_width
+        t = np.clip(np.asarray(theta_j, dtype=np.float64) - self.centre + ell, 0.0, 2 * ell)
+        scale = 1.0 / math.sqrt(ell)
+        return [scale * np.sin(m * math.pi * t / (2 * ell)) for m in range(1, self.functions + 1)]
+
+    def variances(self, amplitude: float, length: float) -> NDArray:
+        """The prior variances of ``beta`` at one grid point."""
+        w = np.arange(1, self.functions + 1) * math.pi / (2 * self.half_width)
+        return amplitude**2 * math.sqrt(2 * math.pi) * length * np.exp(-0.5 * (length * w) ** 2)
+
+    def prior_variance(self) -> NDArray:
+        """The prior variances of ``beta`` over the whole grid (the hyperprior's mixture)."""
+        return np.mean([self.variances(a, ell) for a, ell in self.grid], axis=0)
+
+
+@dataclass(frozen=True)
 class StaticRecord:
     """One quasi-static or rest trial of a living condition, as the fit needs it."""
 
@@ -218,6 +324,62 @@ def _prepare(record: StaticRecord) -> _Prepared:
         direction = 1 if theta[-1] >= theta[0] else -1
     size = max(1, math.ceil(theta.size / MAX_BLOCKS))
     return _Prepared(record, _blocks(theta, size), _blocks(y, size), direction)
+
+
+@dataclass(frozen=True)
+class TrialCheck:
+    """A quasi-static or rest trial against the fitted static model (a predictive check).
+
+    ``structure`` (N m): the RMS of what the model left that varies smoothly with the angle
+    (a sweep: the residual's Legendre components of degrees 2 to :data:`CHECK_DEGREE`; a
+    rest hold: its mean residual); ``noise`` (N m): what the trial's own noise leaves in the
+    same statistic (white noise from the residual's sample-to-sample differences; a hold's
+    SE with its autocorrelation time). ``flagged`` when ``structure`` exceeds both
+    :data:`CHECK_TOLERANCE` and :data:`CHECK_RATIO` times ``noise``.
+    """
+
+    source: str
+    kind: str
+    structure: float
+    noise: float
+
+    @property
+    def flagged(self) -> bool:
+        """Whether the model leaves structure in this trial beyond its noise."""
+        return self.structure > max(CHECK_TOLERANCE, CHECK_RATIO * self.noise)
+
+    @property
+    def flag(self) -> str:
+        """The trial's flag (``trials.csv``), empty when it passes."""
+        if not self.flagged:
+            return ""
+        what = "its mean" if self.kind == "rest" else "a smooth residual over its angles"
+        return (
+            f"static model misfit: {what} of {self.structure:.3f} N m (noise "
+            f"{self.noise:.3f} N m) left by the fit of gravity and the passive curve"
+        )
+
+
+def _check(prep: _Prepared, resid: NDArray) -> TrialCheck:
+    """:class:`TrialCheck` of one trial from its block residuals."""
+    record = prep.record
+    n = resid.size
+    white = math.sqrt(float(np.mean(np.diff(resid) ** 2)) / 2.0) if n > 2 else math.nan
+    if record.kind == "rest" or n <= CHECK_DEGREE + 2:
+        tau = integrated_autocorrelation_time(resid) if n > 8 else 1.0
+        sd = float(np.std(resid))
+        return TrialCheck(
+            record.source, record.kind, abs(float(np.mean(resid))), sd * math.sqrt(tau / n)
+        )
+    span = prep.theta.max() - prep.theta.min()
+    t = 2.0 * (prep.theta - prep.theta.min()) / span - 1.0 if span > 0 else np.zeros(n)
+    basis = np.polynomial.legendre.legvander(t, CHECK_DEGREE)
+    fitted = basis @ np.linalg.lstsq(basis, resid, rcond=None)[0]
+    low = basis[:, :2] @ np.linalg.lstsq(basis[:, :2], resid, rcond=None)[0]
+    structure = math.sqrt(float(np.mean((fitted - low) ** 2)))
+    return TrialCheck(
+        record.source, record.kind, structure, white * math.sqrt((CHECK_DEGREE - 1) / n)
+    )
 
 
 @dataclass(frozen=True)
@@ -287,6 +449,16 @@ class LivingStatics:
         Each condition's torque noise (white plus drift), for its fast trials' standard
         errors; set by :func:`~inertiafit.processing.study.process_study` from the
         condition's sweeps (empty: none known).
+    smooth : SmoothPassive or None
+        The passive curve's smooth part (``None``: the fixed-shape curve of the prior file
+        alone, ``[passive] curve = "fixed"``).
+    regression : _Regression or None
+        The weighted data's normal equations and the prior, to refit under other priors
+        (:meth:`prior_leverage`).
+    hyper_weights : ndarray or None
+        The posterior weight of each point of :attr:`SmoothPassive.grid`.
+    checks : dict of str to TrialCheck
+        Each quasi-static and rest trial against the fitted model, by file.
     """
 
     names: tuple[str, ...]
@@ -300,6 +472,10 @@ class LivingStatics:
     angle_range: tuple[float, float] = (0.0, 0.0)
     converged: bool = True
     noise: dict[str, TorqueNoise] = field(default_factory=dict)
+    smooth: SmoothPassive | None = None
+    regression: _Regression | None = None
+    hyper_weights: NDArray | None = None
+    checks: dict[str, TrialCheck] = field(default_factory=dict)
 
     def index(self, name: str) -> int:
         """Position of a coefficient."""
@@ -327,11 +503,15 @@ class LivingStatics:
             direction,
             self.basis,
             self.coefficients,
+            self.smooth,
         )
         if velocity is not None:
             v = np.asarray(velocity, dtype=np.float64)
             moving = np.where(np.abs(v) > REST_SPEED, np.sign(v), 0.0)
             cols[self.index("hysteresis")] = moving
+            if self.smooth is not None:
+                unit = self.smooth.unit(self.basis.zero + np.asarray(angle, float))
+                cols[self.index("hysteresis_slope")] = moving * unit
         return cols
 
     def curve(self, condition: str, posture: str, direction: int) -> StaticCurve:
@@ -356,24 +536,37 @@ class LivingStatics:
         """
         grad = self.moment_gradient(condition)
         idx = [self.index(n) for n in self.basis.names]
+        full = float(grad @ self.covariance @ grad)
+        if not full > 0:
+            return 1.0
+        if self.regression is not None:  # refitted: the parametric SDs and the amplitudes x2
+            reg = self.regression
+            prec = reg.prior_prec.copy()
+            prec[idx] /= 4.0
+            refit = dataclasses.replace(reg, prior_prec=prec, scale=4.0 * reg.scale)
+            _, cov, _ = refit.solve()
+            return math.sqrt(float(grad @ cov @ grad) / full)
         sds = np.array([sd for _, sd in self.basis.priors])
         wider = self.precision.copy()
         wider[idx, idx] -= 0.75 / sds**2  # prior precision 1/sd^2 -> 1/(2 sd)^2
-        full = float(grad @ self.covariance @ grad)
-        return math.sqrt(float(grad @ np.linalg.solve(wider, grad)) / full) if full > 0 else 1.0
+        return math.sqrt(float(grad @ np.linalg.solve(wider, grad)) / full)
 
     def pinned_by(self, condition: str) -> str:
         """What tells a living condition's ``M_g`` apart from the passive curve.
 
-        ``"passive prior"`` when its SE would grow by more than :data:`LEVERAGE_PRIOR` with
-        the passive prior's SDs doubled; else the data that do — ``"a second posture"``,
+        ``"passive prior"`` with one posture and a smooth passive curve (a smooth curve can
+        take any share of a sinusoid over one sweep: no data tell them apart), or when its SE
+        would grow by more than :data:`LEVERAGE_PRIOR` with the passive prior's SDs (and the
+        smooth part's amplitudes) doubled; else the data that do — ``"a second posture"``,
         ``"the horizontal plane"`` or, with one posture, ``"the shape of the sweep"`` — with
         ``" and the passive prior"`` while the growth exceeds :data:`LEVERAGE_DATA`.
         """
+        with_gravity = [p for p in self.postures.values() if abs(math.cos(p.tilt)) > 1e-6]
+        if not self.gravity_identified:
+            return "passive prior"
         leverage = self.prior_leverage(condition)
         if leverage > LEVERAGE_PRIOR:
             return "passive prior"
-        with_gravity = [p for p in self.postures.values() if abs(math.cos(p.tilt)) > 1e-6]
         parts = []
         if len(with_gravity) > 1:
             parts.append("a second posture")
@@ -388,25 +581,38 @@ class LivingStatics:
         offsets = [i for i, n in enumerate(self.names) if n.startswith(f"C:{condition}:")]
         ic = offsets[0] if offsets else None
         a, b = float(self.coefficients[ia]), float(self.coefficients[ib])
-        moment = math.hypot(a, b)
+        length = math.hypot(a, b)
         g_m = self.moment_gradient(condition)
         g_p = np.zeros(len(self.names))
-        g_p[ia], g_p[ib] = -b / moment**2, a / moment**2
+        g_p[ia], g_p[ib] = -b / length**2, a / length**2
         cov = self.covariance
+        # |(A, B)| overshoots M_g by the scatter across its direction (E|gamma|^2 = M_g^2 +
+        # both variances): that part is taken out, the part along it is the Gaussian kept.
+        # Negligible where M_g is sharp (sub-permille at two postures), it matters with one
+        # posture and a smooth passive curve, where the SE is a good part of M_g.
+        across = float(g_p @ cov @ g_p) * length**2
+        moment = math.sqrt(max(length**2 - across, 0.0))
         keep = [ia, ib] + ([ic] if ic is not None else [])
         c = float(self.coefficients[ic]) if ic is not None else 0.0
         c_se = math.sqrt(float(cov[ic, ic])) if ic is not None else math.nan
         coefficients = np.array([a, b, c])
         sub = np.full((3, 3), 0.0)
         sub[: len(keep), : len(keep)] = cov[np.ix_(keep, keep)]
-        flags = (
-            (
+        if self.gravity_identified:
+            flag = (
                 "living body: M_g from the joint fit of gravity and the passive curve over "
                 f"{len(self.postures)} posture(s), decided by "
                 f"{self.pinned_by(condition)} (its SE grows "
                 f"{self.prior_leverage(condition):.2f}x when the passive prior's SDs double)"
-            ),
-        )
+            )
+        else:
+            flag = (
+                "living body: M_g not measured — one posture cannot tell gravity from a "
+                "passive curve of any smooth shape, so the bodies' priors decide it (the "
+                "joint fit's value is the passive prior's guess); a second posture >= 30 deg "
+                "away or a horizontal-plane condition measures it"
+            )
+        flags = (flag,)
         return GravityFit(
             gravity_moment=moment,
             gravity_moment_se=math.sqrt(float(g_m @ cov @ g_m)),
@@ -433,10 +639,29 @@ class LivingStatics:
         """The static curve's error in a condition's mean inertia: ``(coupling, shared_sd)``.
 
         As :func:`~inertiafit.inference.evidence.shared_gravity_error`, over every
-        coefficient: the mean inertia moves by ``J delta``, ``M_g`` by ``g_m delta``.
+        coefficient: the mean inertia moves by ``J delta``, ``M_g`` by ``g_m delta``. Where
+        the data do not measure ``M_g`` (:attr:`gravity_identified`) no ``M_g`` enters the
+        posterior to couple to: the coupling is 0 and the SD the whole error's.
         """
         jac = np.mean(np.atleast_2d(sensitivities), axis=0)
+        if not self.gravity_identified:
+            return shared_error(jac, self.covariance, np.zeros(len(self.names)))
         return shared_error(jac, self.covariance, self.moment_gradient(condition))
+
+    @property
+    def gravity_identified(self) -> bool:
+        """Whether the data tell the living conditions' ``M_g`` from the passive curve.
+
+        False with a smooth passive curve and one posture, all with gravity: over one range
+        of angles a smooth curve can take any share of the gravity's sinusoid, so such an
+        ``M_g`` comes from the passive curve's prior alone and does not enter the posterior
+        (the bodies' priors decide it). A second posture or a horizontal-plane one tells them
+        apart; the fixed curve (``curve = "fixed"``) does, by its assumed shape.
+        """
+        if self.smooth is None:
+            return True
+        with_gravity = [p for p in self.postures.values() if abs(math.cos(p.tilt)) > 1e-6]
+        return not (len(with_gravity) == len(self.postures) == 1)
 
     def damping(self, values, ses, sensitivities) -> tuple[float, float]:
         """The viscous damping ``b`` over fast trials: ``(mean, sd)``.
@@ -450,10 +675,54 @@ class LivingStatics:
         jac = weights @ np.atleast_2d(np.asarray(sensitivities, float)) / weights.sum()
         return mean, math.sqrt(se**2 + float(jac @ self.covariance @ jac))
 
+    def hyperparameters(self) -> dict[str, tuple[float, float, float, float]]:
+        """The smooth part's amplitude (N m) and length-scale (deg) after the data.
+
+        ``{"smooth_amplitude": (mean, sd, lower, upper), "smooth_length": ...}``: the
+        posterior over the grid (:attr:`hyper_weights`), lower and upper the grid points
+        holding its central 95 %; empty without a smooth part.
+        """
+        if self.smooth is None or self.hyper_weights is None:
+            return {}
+        grid = np.array(self.smooth.grid)
+        out = {}
+        for k, name in enumerate(("smooth_amplitude", "smooth_length")):
+            values = grid[:, k] if k == 0 else np.degrees(grid[:, k])
+            order = np.argsort(values, kind="stable")
+            v, w = values[order], self.hyper_weights[order]
+            cdf = np.cumsum(w)
+            mean = float(w @ v)
+            sd = math.sqrt(max(float(w @ (v - mean) ** 2), 0.0))
+            lower = float(v[int(np.searchsorted(cdf, 0.025))])
+            upper = float(v[min(int(np.searchsorted(cdf, 0.975)), v.size - 1)])
+            out[name] = (mean, sd, lower, upper)
+        return out
+
+    def at_amplitude_edge(self) -> float:
+        """The posterior weight on the grid's largest amplitude (0 without a smooth part)."""
+        if self.smooth is None or self.hyper_weights is None:
+            return 0.0
+        top = max(self.smooth.amplitudes)
+        grid = zip(self.smooth.grid, self.hyper_weights, strict=True)
+        return float(sum(w for (a, _), w in grid if a == top))
+
     def value(self, name: str) -> tuple[float, float]:
         """A coefficient's mean and SD."""
         i = self.index(name)
         return float(self.coefficients[i]), math.sqrt(float(self.covariance[i, i]))
+
+    @property
+    def passive_names(self) -> tuple[str, ...]:
+        """The coefficients of the elastic curve ``P``: the prior file's, then the smooth part's."""
+        return (*self.basis.names, *(self.smooth.names if self.smooth is not None else ()))
+
+    def passive_columns(self, theta: NDArray) -> NDArray:
+        """The columns of :attr:`passive_names` at device angles ``theta`` (rad), a matrix."""
+        theta = np.asarray(theta, dtype=np.float64)
+        cols = self.basis.columns(theta)
+        if self.smooth is not None:
+            cols = [*cols, *self.smooth.columns(self.basis.zero + theta)]
+        return np.column_stack(cols)
 
     def passive_curve(self, step_deg: float = 2.0) -> pd.DataFrame:
         """The passive elastic moment over the swept range, relative to its middle.
@@ -467,15 +736,17 @@ class LivingStatics:
         lo, hi = self.angle_range
         theta = np.radians(np.arange(math.degrees(lo), math.degrees(hi) + 1e-9, step_deg))
         mid = 0.5 * (lo + hi)
-        cols = np.column_stack(self.basis.columns(theta)) - np.column_stack(
-            self.basis.columns(np.array([mid]))
-        )
-        idx = [self.index(n) for n in self.basis.names]
+        cols = self.passive_columns(theta) - self.passive_columns(np.array([mid]))
+        idx = [self.index(n) for n in self.passive_names]
         mean = cols @ self.coefficients[idx]
         sd = np.sqrt(np.einsum("ij,jk,ik->i", cols, self.covariance[np.ix_(idx, idx)], cols))
+        prior_mean_all = np.array([m for m, _ in self.basis.priors])
         prior_var = np.array([s for _, s in self.basis.priors]) ** 2
+        if self.smooth is not None:
+            prior_mean_all = np.r_[prior_mean_all, np.zeros(self.smooth.functions)]
+            prior_var = np.r_[prior_var, self.smooth.prior_variance()]
         prior_sd = np.sqrt((cols**2) @ prior_var)
-        prior_mean = cols @ np.array([m for m, _ in self.basis.priors])
+        prior_mean = cols @ prior_mean_all
         z = _Z95
         table = pd.DataFrame(
             {
@@ -504,11 +775,16 @@ def _columns(
     direction: int,
     basis: PassiveBasis,
     coefficients: NDArray,
+    smooth: SmoothPassive | None = None,
 ) -> list[NDArray | float]:
     """The design: one entry per coefficient, an array or a constant."""
     tilt = math.cos(posture.tilt)
     angle = theta + posture.rotation
     passive = dict(zip(basis.names, basis.columns(theta), strict=True))
+    if smooth is not None:
+        theta_j = basis.zero + theta
+        passive |= dict(zip(smooth.names, smooth.columns(theta_j), strict=True))
+        passive["hysteresis_slope"] = direction * smooth.unit(theta_j)
     out: list[NDArray | float] = []
     for name in names:
         kind, _, rest = name.partition(":")
@@ -545,6 +821,7 @@ def passive_basis(prior: PassivePrior) -> PassiveBasis:
         hysteresis=prior.hysteresis,
         curve_scale=prior.curve_scale,
         damping=prior.damping,
+        smooth=prior.curve == "smooth",
     )
 
 
@@ -564,25 +841,113 @@ def _matrix(columns: Sequence[NDArray | float], theta: NDArray) -> NDArray:
 
 
 def _layout(
-    conditions: Sequence[str], pairs: Sequence[str], used: Sequence[str], basis: PassiveBasis
+    conditions: Sequence[str],
+    pairs: Sequence[str],
+    used: Sequence[str],
+    basis: PassiveBasis,
+    smooth: SmoothPassive | None,
 ) -> tuple[tuple[str, ...], NDArray, NDArray]:
-    """The coefficients' names, prior means and prior precisions (0: flat)."""
+    """The coefficients' names, prior means and prior precisions (0: flat or per grid point)."""
     names = (
         *[f"{k}:{c}" for c in conditions for k in ("A", "B")],
         *[f"C:{pc}" for pc in pairs],
         "hysteresis",
+        *(("hysteresis_slope",) if smooth is not None else ()),
         *basis.names,
+        *(smooth.names if smooth is not None else ()),
         *[f"rotation:{p}" for p in used[1:]],
     )
     prior_mean = np.zeros(len(names))
     prior_prec = np.zeros(len(names))
-    for name, (mean, sd) in [
-        ("hysteresis", basis.hysteresis),
-        *zip(basis.names, basis.priors, strict=True),
-    ]:
+    known = [("hysteresis", basis.hysteresis), *zip(basis.names, basis.priors, strict=True)]
+    if smooth is not None:  # the slope over the range: as large as the hysteresis itself
+        known.append(("hysteresis_slope", (0.0, basis.hysteresis[1])))
+    for name, (mean, sd) in known:
         prior_mean[names.index(name)] = mean
         prior_prec[names.index(name)] = 1.0 / sd**2
     return names, prior_mean, prior_prec
+
+
+#: The smallest prior variance of a smooth coefficient (its spectral density underflows at
+#: long length-scales): far below anything the data could move.
+_VARIANCE_FLOOR = 1e-16
+
+
+@dataclass(frozen=True)
+class _Regression:
+    """A weighted linear regression with a Gaussian prior, its smooth part a grid mixture.
+
+    ``gram``, ``rhs``, ``yy``: ``X' W X``, ``X' W y``, ``y' W y`` of the data; ``prior_mean``
+    and ``prior_prec`` (diagonal; 0 flat) of every coefficient but the smooth ones, whose
+    variances are ``scale`` times ``variances[g]`` at grid point ``g``. ``expected``: the
+    evidence averaged over the noise (a design: ``y`` is its noise-free model).
+    """
+
+    gram: NDArray
+    rhs: NDArray
+    yy: float
+    prior_mean: NDArray
+    prior_prec: NDArray
+    smooth_index: NDArray
+    variances: tuple[NDArray, ...] = ()
+    scale: float = 1.0
+    expected: bool = False
+
+    def solve(self) -> tuple[NDArray, NDArray, NDArray]:
+        """``(mean, covariance, weights)``: the posterior averaged over the grid.
+
+        Each grid point's posterior is Gaussian; its weight is its evidence (the hyperprior
+        is uniform over the grid). The mixture's mean and covariance (the law of total
+        covariance) are returned, with the weights.
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            If the data leave a flat coefficient undetermined.
+        """
+        n = self.prior_mean.size
+        means, covs, logs = [], [], []
+        for var in self.variances or (None,):
+            prec = self.prior_prec.copy()
+            log_prior = 0.0
+            if var is not None:
+                v = np.maximum(self.scale * var, _VARIANCE_FLOOR)
+                prec[self.smooth_index] = 1.0 / v
+                log_prior = -0.5 * float(np.sum(np.log(v)))
+            gram = self.gram + np.diag(prec)
+            rhs = self.rhs + prec * self.prior_mean
+            try:
+                factor = scipy.linalg.cho_factor(gram)
+            except scipy.linalg.LinAlgError:
+                raise np.linalg.LinAlgError("singular") from None
+            mean = scipy.linalg.cho_solve(factor, rhs)
+            cov = scipy.linalg.cho_solve(factor, np.eye(n))
+            logdet = 2.0 * float(np.sum(np.log(np.diag(factor[0]))))
+            quad = self.yy + float(self.prior_mean @ (prec * self.prior_mean) - mean @ rhs)
+            log_ev = -0.5 * quad + log_prior - 0.5 * logdet
+            if self.expected:
+                log_ev += 0.5 * float(np.sum(cov * self.gram))
+            means.append(mean)
+            covs.append(cov)
+            logs.append(log_ev)
+        logs_arr = np.array(logs)
+        weights = np.exp(logs_arr - logs_arr.max())
+        weights /= weights.sum()
+        stacked = np.array(means)
+        mean = weights @ stacked
+        dev = stacked - mean
+        cov = np.einsum("g,gij->ij", weights, np.array(covs)) + (dev.T * weights) @ dev
+        return mean, 0.5 * (cov + cov.T), weights
+
+
+def _smooth_prior(
+    smooth: SmoothPassive | None, names: Sequence[str]
+) -> tuple[NDArray, tuple[NDArray, ...]]:
+    """The smooth coefficients' indices and their prior variances at each grid point."""
+    if smooth is None:
+        return np.zeros(0, dtype=int), ()
+    index = np.array([names.index(n) for n in smooth.names])
+    return index, tuple(smooth.variances(a, ell) for a, ell in smooth.grid)
 
 
 def design_statics(
@@ -601,12 +966,16 @@ def design_statics(
 ) -> LivingStatics:
     """The joint fit a design *would* give, before it is measured (for the planner).
 
-    The fit is linear-Gaussian in its coefficients, so its covariance does not depend on the
-    data's values: it is computed here from the design alone — ``sweeps`` quasi-static sweeps
-    per posture over ``sweep`` (rad, alternating up and down), ``rest_trials`` quiet holds per
-    posture spread over the sweep, at the noise that gives one rigid sweep's ``M_g`` the SE
-    ``rigid_se`` (N m; ``NoiseLevels.gravity_se``), for a condition of gravity moment
-    ``moment`` (N m) and ``phase`` (rad). The rotations enter at their priors' SDs.
+    The fit is linear-Gaussian in its coefficients, so at each point of the smooth part's
+    grid its covariance does not depend on the data's values: it is computed here from the
+    design alone — ``sweeps`` quasi-static sweeps per posture over ``sweep`` (rad,
+    alternating up and down), ``rest_trials`` quiet holds per posture spread over the sweep,
+    at the noise that gives one rigid sweep's ``M_g`` the SE ``rigid_se`` (N m;
+    ``NoiseLevels.gravity_se``), for a condition of gravity moment ``moment`` (N m) and
+    ``phase`` (rad). The grid points are weighted by their evidence averaged over the noise,
+    for a joint whose curve is the passive prior's mean (the smooth part 0): the prediction
+    for a joint that follows its prior file; one that does not widens ``M_g`` with one
+    posture. The rotations enter at their priors' SDs.
 
     Returns
     -------
@@ -622,38 +991,57 @@ def design_statics(
     g_m = np.array([1.0, 0.0, 0.0])  # d M_g along the phase direction
     per_block = rigid_se**2 / float(g_m @ np.linalg.inv(rigid.T @ rigid) @ g_m)
     per_second = per_block * sweep_seconds / blocks  # variance x seconds: a mean over T has /T
+    smooth = (
+        SmoothPassive.over(basis.zero + sweep[0], basis.zero + sweep[1]) if basis.smooth else None
+    )
     order = [p.name for p in postures]
     pairs = [f"{condition}:{p}" for p in order]
-    names, _, prior_prec = _layout((condition,), pairs, order, basis)
-    coef = np.zeros(len(names))
+    names, prior_mean, prior_prec = _layout((condition,), pairs, order, basis, smooth)
+    coef = prior_mean.copy()
     coef[names.index(f"A:{condition}")] = moment * math.cos(phase)
     coef[names.index(f"B:{condition}")] = moment * math.sin(phase)
-    precision = np.diag(prior_prec)
     ref = postures[0]
     for posture in postures[1:]:
         i = names.index(f"rotation:{posture.name}")
         sd = math.hypot(ref.rotation_sd, posture.rotation_sd)
-        precision[i, i] = 1.0 / sd**2 if math.isfinite(sd) else 0.0
+        prior_prec[i] = 1.0 / sd**2 if math.isfinite(sd) else 0.0
     holds = theta[np.linspace(0, blocks - 1, rest_trials + 2).astype(int)[1:-1]]
+    gram = np.zeros((len(names), len(names)))
     for posture in postures:
         for k in range(sweeps):
             direction = 1 if k % 2 == 0 else -1
-            cols = _columns(names, theta, condition, posture, direction, basis, coef)
+            cols = _columns(names, theta, condition, posture, direction, basis, coef, smooth)
             x = _matrix(cols, theta)
-            precision += (x.T @ x) / per_block
+            gram += (x.T @ x) / per_block
         if rest_trials:
-            cols = _columns(names, holds, condition, posture, 0, basis, coef)
+            cols = _columns(names, holds, condition, posture, 0, basis, coef, smooth)
             x = _matrix(cols, holds)
-            precision += (x.T @ x) / (per_second / rest_seconds)
+            gram += (x.T @ x) / (per_second / rest_seconds)
+    index, variances = _smooth_prior(smooth, names)
+    # noise-free data at the nominal values: y = X coef, so X'Wy = gram coef
+    regression = _Regression(
+        gram=gram,
+        rhs=gram @ coef,
+        yy=float(coef @ gram @ coef),
+        prior_mean=prior_mean,
+        prior_prec=prior_prec,
+        smooth_index=index,
+        variances=variances,
+        expected=True,
+    )
+    _, covariance, weights = regression.solve()
     return LivingStatics(
         names=names,
         coefficients=coef,
-        covariance=np.linalg.inv(precision),
-        precision=precision,
+        covariance=covariance,
+        precision=np.linalg.inv(covariance),
         postures={p.name: p for p in postures},
         basis=basis,
         conditions=(condition,),
         angle_range=(float(sweep[0]), float(sweep[1])),
+        smooth=smooth,
+        regression=regression,
+        hyper_weights=weights if smooth is not None else None,
     )
 
 
@@ -676,7 +1064,8 @@ def fit_statics(
         Every posture, the first the reference of the rotations (``rotation_sd`` of the
         others is taken relative to it: ``hypot`` of the two).
     basis : PassiveBasis
-        The passive columns and priors.
+        The passive columns and priors; with :attr:`PassiveBasis.smooth`, a smooth part
+        (:class:`SmoothPassive`) over the swept joint angles too.
     where : str
         Named in errors (the manifest).
 
@@ -692,7 +1081,6 @@ def fit_statics(
     order = list(postures)
     used = [p for p in order if any(r.posture == p for r in records)]
     reference = used[0]
-    names, prior_mean, prior_prec = _layout(conditions, pairs, used, basis)
     for c in conditions:
         if not any(
             r.condition == c
@@ -704,6 +1092,14 @@ def fit_statics(
                 f"{where}: condition {c}: no quasi-static trial in a posture with gravity "
                 "(axis_tilt < 90 deg); M_g cannot be measured"
             )
+    swept = np.concatenate([p.theta for p in prepared if p.record.kind != "rest"])
+    smooth = (
+        SmoothPassive.over(basis.zero + swept.min(), basis.zero + swept.max())
+        if basis.smooth
+        else None
+    )
+    names, prior_mean, prior_prec = _layout(conditions, pairs, used, basis, smooth)
+    index, variances = _smooth_prior(smooth, names)
     n_coef = len(names)
     ref = postures[reference]
     geometry = {p: postures[p] for p in order}
@@ -714,17 +1110,18 @@ def fit_statics(
     weights = np.ones(len(prepared))
     stacked_y = [p.y for p in prepared]
     for iteration in range(_ITERATIONS):
-        gram = np.diag(prior_prec.copy())
-        rhs = prior_prec * prior_mean
+        mean0, prec0 = prior_mean.copy(), prior_prec.copy()
         for p in used[1:]:
             i = names.index(f"rotation:{p}")
             if iteration == 0:
-                gram[i, i], rhs[i] = 1.0, 0.0  # the first pass: no A, B to rotate yet
+                mean0[i], prec0[i] = 0.0, 1.0  # the first pass: no A, B to rotate yet
             elif math.isfinite(rot_sd[p]):
-                gram[i, i] = 1.0 / rot_sd[p] ** 2
-                rhs[i] = -shift[p] / rot_sd[p] ** 2  # the prior is on the whole shift
+                mean0[i], prec0[i] = -shift[p], 1.0 / rot_sd[p] ** 2  # on the whole shift
             else:
-                gram[i, i], rhs[i] = 0.0, 0.0
+                mean0[i], prec0[i] = 0.0, 0.0
+        gram = np.zeros((n_coef, n_coef))
+        rhs = np.zeros(n_coef)
+        yy = 0.0
         designs = []
         for k, prep in enumerate(prepared):
             cols = _columns(
@@ -735,13 +1132,16 @@ def fit_statics(
                 prep.direction,
                 basis,
                 coef,
+                smooth,
             )
             x = _matrix(cols, prep.theta)
             designs.append(x)
             gram += weights[k] * (x.T @ x)
             rhs += weights[k] * (x.T @ stacked_y[k])
+            yy += weights[k] * float(stacked_y[k] @ stacked_y[k])
+        regression = _Regression(gram, rhs, yy, mean0, prec0, index, variances)
         try:
-            new = np.linalg.solve(gram, rhs)
+            new, covariance, hyper = regression.solve()
         except np.linalg.LinAlgError:
             raise InputError(
                 f"{where}: the living conditions' quasi-static trials do not determine M_g "
@@ -753,7 +1153,7 @@ def fit_statics(
             resid = stacked_y[k] - designs[k] @ new
             var = float(resid @ resid) / max(resid.size - 1, 1)
             tau = integrated_autocorrelation_time(resid) if resid.size > 8 else 1.0
-            new_weights[k] = 1.0 / max(var * tau, 1e-300)
+            new_weights[k] = 1.0 / max(var * tau, _NOISE_FLOOR)
             rms[prep.record.source] = float(np.sqrt(np.mean(resid**2)))
         step = 0.0
         for p in used[1:]:
@@ -768,28 +1168,32 @@ def fit_statics(
         coef, weights = new, new_weights
         if converged and iteration >= 2:
             break
-    # the final precision at the converged point (rotation columns at the fitted angles)
-    precision = gram
-    covariance = np.linalg.inv(precision)
+    checks = {
+        prep.record.source: _check(prep, stacked_y[k] - designs[k] @ coef)
+        for k, prep in enumerate(prepared)
+    }
     noise = {
         c: _condition_noise(
-            [p for p in prepared if p.record.condition == c], names, geometry, basis, coef
+            [p for p in prepared if p.record.condition == c], names, geometry, basis, coef, smooth
         )
         for c in conditions
     }
-    angles = np.concatenate([p.theta for p in prepared if p.record.kind != "rest"])
     return LivingStatics(
         names=names,
         coefficients=coef,
         covariance=covariance,
-        precision=precision,
+        precision=np.linalg.inv(covariance),
         postures=geometry,
         basis=basis,
         conditions=conditions,
         residual_rms=rms,
-        angle_range=(float(angles.min()), float(angles.max())),
+        angle_range=(float(swept.min()), float(swept.max())),
         converged=bool(converged),
         noise={c: v for c, v in noise.items() if v is not None},
+        smooth=smooth,
+        regression=regression,
+        hyper_weights=hyper if smooth is not None else None,
+        checks=checks,
     )
 
 
@@ -799,6 +1203,7 @@ def _condition_noise(
     geometry: Mapping[str, PostureGeometry],
     basis: PassiveBasis,
     coef: NDArray,
+    smooth: SmoothPassive | None = None,
 ) -> TorqueNoise | None:
     """A condition's torque noise from the residuals of its sweeps under the joint fit.
 
@@ -815,7 +1220,14 @@ def _condition_noise(
         part = moving_part(theta)
         theta, y = theta[part], np.asarray(record.torque, float)[part]
         cols = _columns(
-            names, theta, record.condition, geometry[record.posture], prep.direction, basis, coef
+            names,
+            theta,
+            record.condition,
+            geometry[record.posture],
+            prep.direction,
+            basis,
+            coef,
+            smooth,
         )
         x = _matrix(cols, theta)
         model = x @ coef
@@ -833,6 +1245,9 @@ _UNITS = {
     "stop_high_wide": "N m",
     "curve_scale": "1",
     "hysteresis": "N m",
+    "hysteresis_slope": "N m",
+    "smooth_amplitude": "N m",
+    "smooth_length": "deg",
     "damping": "N m s/rad",
     "rotation": "deg",
     "gravity_moment": "N m",
@@ -915,6 +1330,16 @@ def living_tables(
     for name, prior in zip(statics.basis.names, statics.basis.priors, strict=True):
         add(name, _UNITS[name], *statics.value(name), prior)
     add("hysteresis", "N m", *statics.value("hysteresis"), statics.basis.hysteresis)
+    if statics.smooth is not None:
+        add(
+            "hysteresis_slope",
+            _UNITS["hysteresis_slope"],
+            *statics.value("hysteresis_slope"),
+            (0.0, statics.basis.hysteresis[1]),
+        )
+        for name, (mean, sd, lower, upper) in statics.hyperparameters().items():
+            add(name, _UNITS[name], mean, sd)
+            rows[-1] |= {"lower": lower, "upper": upper}
     if damping is not None:
         add("damping", "N m s/rad", damping[0], damping[1], statics.basis.damping, "data")
     for name, posture in statics.postures.items():

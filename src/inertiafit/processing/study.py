@@ -47,6 +47,8 @@ from inertiafit.processing.gravity import GravityFit, fit_gravity, pooled_noise
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import lag_consistency_flags
 from inertiafit.processing.living import (
+    SMOOTH_AMPLITUDES,
+    SMOOTH_EDGE_WEIGHT,
     LivingStatics,
     PostureGeometry,
     StaticCurve,
@@ -572,6 +574,21 @@ def _process(
                 "(the postures' rotations or the trials' noise weights still moved after 30 "
                 "iterations); its M_g is the last iteration's"
             )
+        _apply_checks(study, statics, data, rows, notes)
+        if statics.at_amplitude_edge() > SMOOTH_EDGE_WEIGHT:
+            notes.append(
+                f"{study.path}: the passive curve's smooth part took the largest amplitude its "
+                f"prior allows ({max(SMOOTH_AMPLITUDES):g} N m) with weight "
+                f"{statics.at_amplitude_edge():.2f}: the joint's curve is far from the prior "
+                "file's; check joint_angle_at_zero, the joint and the torque's sign"
+            )
+        if not statics.gravity_identified:
+            notes.append(
+                f"{study.path}: one posture: the living body's M_g is not measured (a passive "
+                "curve of any smooth shape can mimic gravity over one sweep), so its prior "
+                "decides it; its I is measured. A second posture >= 30 deg away or a "
+                "horizontal-plane condition measures M_g"
+            )
         if len(statics.conditions) > 1:
             notes.append(
                 f"{study.path}: conditions {', '.join(statics.conditions)} hold the living body "
@@ -784,6 +801,46 @@ def _posture_geometry(study: Study) -> dict[str, PostureGeometry]:
     if not study.postures:
         return {"": PostureGeometry("")}
     return {name: posture_geometry(p) for name, p in study.postures.items()}
+
+
+def _apply_checks(
+    study: Study,
+    statics: LivingStatics,
+    data: list[tuple[TrialSpec, xr.Dataset]],
+    rows: dict[int, dict],
+    notes: list[str],
+) -> None:
+    """The joint fit's check of every sweep and hold: a flag on each that fails, a warning.
+
+    With the prior file's fixed curve (``[passive] curve = "fixed"``) a failed check refuses
+    the study: that curve's intervals would be narrow and wrong. With the smooth curve the
+    study goes on with a warning (a trial left with structure weighs less in the fit through
+    its residual's noise model, which widens the answer).
+    """
+    failed = []
+    for spec, _ in data:
+        check = statics.checks.get(str(spec.file))
+        if check is None or not check.flagged or spec.index not in rows:
+            continue
+        row = rows[spec.index]
+        row["flags"] = "; ".join(filter(None, [row["flags"], check.flag]))
+        failed.append((spec, check))
+    if not failed:
+        return
+    names = ", ".join(_relative(spec.file, study.base_dir) for spec, _ in failed)
+    worst = max(check.structure for _, check in failed)
+    if not statics.basis.smooth:
+        raise InputError(
+            f'{study.path}: [passive] curve = "fixed": the prior file\'s passive curve leaves '
+            f"structure of up to {worst:.3f} N m in {names} beyond their noise (the joint's curve "
+            'is not of its shape); remove curve = "fixed" to let the data shape the curve'
+        )
+    notes.append(
+        f"{study.path}: the fit of gravity and the passive curve leaves structure of up to "
+        f"{worst:.3f} N m beyond the noise in {names} (a curve that differs between postures "
+        "or sweeps: thixotropy, a contraction, drift); those trials weigh less in the fit, "
+        "so check them before trusting the living body's M_g and I"
+    )
 
 
 def _record(spec: TrialSpec, ds: xr.Dataset) -> StaticRecord:
