@@ -1,0 +1,125 @@
+"""Living joints whose passive curve is not the prior file's shape (issue 32).
+
+The smooth part of the passive curve (:class:`~inertiafit.processing.living.SmoothPassive`),
+the fit's check of every sweep, one posture's unmeasured ``M_g``, and a small seeded version
+of ``benchmarks/living_shapes.py`` (the smooth curve and the fixed one on the same studies).
+"""
+
+import math
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from inertiafit.errors import InputError
+from inertiafit.inference.evidence import condition_evidence
+from inertiafit.processing.living import CHECK_TOLERANCE, SmoothPassive
+from inertiafit.processing.study import process_study
+from inertiafit.simulate import simulate_living_study
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import living_shapes
+
+LIVING = "attachment+forearm"
+
+
+def test_the_basis_approximates_a_squared_exponential_kernel():
+    # Solin & Sarkka's approximation: Phi diag(S) Phi' against the exact kernel
+    # a^2 exp(-d^2 / 2 l^2) over the swept range (not the margin beyond it), for the
+    # length-scales the basis is sized for; within 2 % of the kernel's peak.
+    smooth = SmoothPassive.over(math.radians(30.0), math.radians(120.0))
+    t = np.linspace(math.radians(30.0), math.radians(120.0), 60)
+    phi = np.column_stack(smooth.columns(t))
+    for amplitude, length in [(0.3, math.radians(8.0)), (1.0, math.radians(25.0))]:
+        approx = phi @ np.diag(smooth.variances(amplitude, length)) @ phi.T
+        exact = amplitude**2 * np.exp(-0.5 * (t[:, None] - t[None, :]) ** 2 / length**2)
+        assert np.max(np.abs(approx - exact)) < 0.02 * amplitude**2
+    # beyond the domain the smooth part is zero; the hyperprior's mixture variance is the
+    # mean of the grid's
+    far = np.column_stack(smooth.columns(np.array([smooth.centre + 1.01 * smooth.half_width])))
+    assert np.allclose(far, 0.0)
+    grid = [smooth.variances(a, ell) for a, ell in smooth.grid]
+    assert np.allclose(smooth.prior_variance(), np.mean(grid, axis=0))
+
+
+@pytest.fixture(scope="module")
+def cubic_two_postures(tmp_path_factory):
+    """A two-posture study whose elbow stiffens as a cubic, stops undeclared."""
+    rng = np.random.default_rng([3, 32])
+    passive = living_shapes.draw_passive(rng, "cubic") | {"shape_size": 2.5}
+    root = tmp_path_factory.mktemp("cubic")
+    return simulate_living_study(
+        root, seed=3, postures="two", passive=passive, declare_stops=False, trials_per_speed=3
+    )
+
+
+def test_the_fixed_curve_on_a_cubic_joint_is_flagged_and_refused(cubic_two_postures):
+    # Today's fixed-shape model leaves the cubic in the sweeps' residuals: the check refuses
+    # it, naming the key and the trials; the smooth curve passes every trial's check.
+    fixed = living_shapes.fixed_view(cubic_two_postures)
+    with pytest.raises(InputError, match=r'curve = "fixed".*structure of up to') as err:
+        process_study(fixed)
+    assert "quasistatic" in str(err.value)
+    assert "\n" not in str(err.value)
+    processed = process_study(cubic_two_postures)
+    checks = processed.living.checks
+    assert len(checks) == 2 * (2 + 3)  # two sweeps and three holds per posture
+    assert not any(c.flagged for c in checks.values())
+    assert max(c.structure for c in checks.values()) < CHECK_TOLERANCE
+    assert not processed.trials["flags"].fillna("").str.contains("misfit").any()
+
+
+def test_a_sweep_the_smooth_curve_cannot_follow_is_flagged(tmp_path, cubic_two_postures):
+    # One sweep whose torque jumps by 0.5 N m halfway (a contraction the EMG did not see):
+    # the same curve in every other trial cannot make it, so that sweep alone is flagged, in
+    # trials.csv and in a study warning, and the study goes on.
+    study = tmp_path / "study"
+    shutil.copytree(cubic_two_postures.parent, study)
+    path = study / "data" / "B_rotated_quasistatic_up.csv"
+    frame = pd.read_csv(path)
+    frame.loc[frame.index >= len(frame) // 2, "torque"] += 0.5
+    frame.to_csv(path, index=False)
+    processed = process_study(study / "study.toml")
+    flagged = [Path(s).name for s, c in processed.living.checks.items() if c.flagged]
+    assert flagged == [path.name]
+    row = processed.trials[processed.trials["file"].str.endswith(path.name)].iloc[0]
+    assert "static model misfit" in row["flags"]
+    assert any("leaves structure" in w and path.name in w for w in processed.warnings)
+
+
+def test_one_posture_leaves_the_living_gravity_moment_to_the_priors(tmp_path):
+    # With one posture a smooth curve can mimic gravity: the living condition's M_g is not
+    # evidence (the rigid condition's is), its I is, with the static curve's whole error;
+    # the study and the joint's table say so. The fixed curve keeps it as evidence.
+    manifest = simulate_living_study(tmp_path, seed=5, postures="one", trials_per_speed=3)
+    processed = process_study(manifest)
+    assert not processed.living.gravity_identified
+    assert processed.living.pinned_by(LIVING) == "passive prior"
+    evidence = {c.label: c for c in condition_evidence(processed)}
+    assert evidence[LIVING].gravity_moment is None
+    assert evidence[LIVING].coupling == 0.0
+    assert evidence[LIVING].inertia is not None
+    assert evidence["attachment"].gravity_moment is not None
+    assert any("M_g is not measured" in w for w in processed.warnings)
+    fixed = process_study(living_shapes.fixed_view(manifest))
+    assert fixed.living.gravity_identified
+    assert {c.label: c for c in condition_evidence(fixed)}[LIVING].gravity_moment is not None
+
+
+def test_small_seeded_shapes_two_postures():
+    # Three studies of the benchmark (a kink, a bump, stops where the prior file does not
+    # put them), two postures, the living condition's own evidence: the smooth curve's 95 %
+    # intervals of I and M_g hold the truth; the fixed curve (negative control) is refused
+    # by its check or misses M_g in at least two of them.
+    fixed_fails = 0
+    for seed in (20261203, 20261204, 20261205):
+        r = living_shapes.one_study("two", seed, sample=False)
+        assert r["smooth I inside"], r
+        assert r["smooth M_g inside"], r
+        assert r["smooth pinned_by"] == "a second posture"
+        assert abs(r["smooth M_g z"]) < 3.0
+        fixed_fails += "fixed refused" in r or not r["fixed M_g inside"]
+    assert fixed_fails >= 2
