@@ -124,12 +124,16 @@ def _exact_curve(rng: np.random.Generator, basis, noise, layout):
     coef = {n: rng.normal(m, s) for n, (m, s) in zip(names, basis.priors, strict=True)}
     h = rng.normal(*basis.hysteresis)
     smooth = getattr(layout, "smooth", None)  # the passive curve's smooth part, if any
-    slope, beta = 0.0, np.zeros(0)
+    eta, beta = np.zeros(0), np.zeros(0)
     if smooth is not None:  # from its prior too: a grid point, then the coefficients
-        slope = rng.normal(0.0, basis.hysteresis[1])
-        amplitude, length = smooth.grid[rng.integers(len(smooth.grid))]
+        # (amplitudes up to 1 N m: a passive curve that swings by tens of N m within ten
+        # degrees is no relaxed elbow, and a fast trial's window checks are not made for it)
+        eta = rng.normal(0.0, np.sqrt(smooth.hysteresis_variances(basis.hysteresis[1])))
+        grid = [(a, ell) for a, ell in smooth.grid if a <= 1.0]
+        amplitude, length = grid[rng.integers(len(grid))]
         beta = rng.normal(0.0, np.sqrt(smooth.variances(amplitude, length)))
-        coef |= dict(zip(smooth.names, beta, strict=True)) | {"hysteresis_slope": slope}
+        coef |= dict(zip(smooth.names, beta, strict=True))
+        coef |= dict(zip(smooth.hysteresis_names, eta, strict=True))
     truth = np.empty(len(layout.names))
     for i, name in enumerate(layout.names):
         kind = name.partition(":")[0]
@@ -151,9 +155,9 @@ def _exact_curve(rng: np.random.Generator, basis, noise, layout):
         moving = np.where(np.abs(velocity) > REST_SPEED, np.sign(velocity), 0.0)
         if smooth is None:
             return passive + h * moving
-        joint = basis.zero + np.asarray(angle, dtype=float)
-        passive = passive + np.column_stack(smooth.columns(joint)) @ beta
-        return passive + (h + slope * smooth.unit(joint)) * moving
+        functions = np.column_stack(smooth.columns(basis.zero + np.asarray(angle, dtype=float)))
+        passive = passive + functions @ beta
+        return passive + (h + functions[:, : eta.size] @ eta) * moving
 
     return fit.curve("F", "seated", 1), extra
 

@@ -209,8 +209,8 @@ def _sbc_ranks(postures, n_studies, rng, *, truth=BASIS, model=BASIS, rigid=Fals
 
     Simulation-based calibration of the static fit: every coefficient the fit integrates out
     (stiffness, the four stop moments, the hysteresis, each posture's rotation and, for a
-    smooth curve, the hysteresis' slope and the smooth part: a grid point of its hyperprior,
-    then its coefficients) is drawn from ``truth``'s prior, the sweeps from the model itself
+    smooth curve, the hysteresis' change over the range and the smooth part: a grid point
+    of its hyperprior, then its coefficients) is drawn from ``truth``'s prior, the sweeps from the model itself
     with white noise; the true ``M_g`` from a wide range (its prior in the fit is flat).
     Under a calibrated fit (``model``) ``Phi(z)`` is uniform.
     """
@@ -222,9 +222,9 @@ def _sbc_ranks(postures, n_studies, rng, *, truth=BASIS, model=BASIS, rigid=Fals
         moment, phase = rng.uniform(1.0, 4.0), rng.uniform(-0.5, 0.5)
         coef = {n: rng.normal(m, s) for n, (m, s) in zip(names, BASIS.priors, strict=True)}
         h = rng.normal(*BASIS.hysteresis)
-        slope, beta = 0.0, np.zeros(smooth.functions)
+        eta, beta = np.zeros(smooth.hysteresis_functions), np.zeros(smooth.functions)
         if truth.smooth:
-            slope = rng.normal(0.0, BASIS.hysteresis[1])
+            eta = rng.normal(0.0, np.sqrt(smooth.hysteresis_variances(BASIS.hysteresis[1])))
             amplitude, length = smooth.grid[rng.integers(len(smooth.grid))]
             beta = rng.normal(0.0, np.sqrt(smooth.variances(amplitude, length)))
         records = []
@@ -240,14 +240,15 @@ def _sbc_ranks(postures, n_studies, rng, *, truth=BASIS, model=BASIS, rigid=Fals
             for direction in (1, -1):
                 theta = sweep[::direction]
                 joint = BASIS.zero + theta
+                functions = np.column_stack(smooth.columns(joint))
                 passive = (
                     sum(coef[n] * col for n, col in zip(names, BASIS.columns(theta), strict=True))
-                    + np.column_stack(smooth.columns(joint)) @ beta
+                    + functions @ beta
                 )
                 torque = (
                     math.cos(posture.tilt) * moment * np.sin(theta + phase + rotation)
                     + passive
-                    + (h + slope * smooth.unit(joint)) * direction
+                    + (h + functions[:, : eta.size] @ eta) * direction
                     + rng.normal(0.0, 0.05, theta.size)
                 )
                 records.append(StaticRecord(theta, torque, "F", name, "quasi-static", "x"))

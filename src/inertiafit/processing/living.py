@@ -56,6 +56,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 import scipy.linalg
+import scipy.ndimage
 from numpy.typing import NDArray
 
 from inertiafit.errors import InputError
@@ -115,6 +116,11 @@ SMOOTH_LENGTHS_DEG = (8.0, 14.0, 25.0, 45.0, 80.0)
 #: The basis' domain is this many times the swept half range (the Hilbert-space
 #: approximation's boundary factor: the curve is free over the sweeps and a margin beyond).
 SMOOTH_BOUNDARY = 2.0
+#: The direction-dependent moment's change over the range (``h(theta_j) sgn(omega)``): a
+#: Gaussian process of the same basis, its amplitude the hysteresis prior's SD and this
+#: length-scale (deg), fixed (a relaxed ankle's sweeps differ by 2.0-3.1 N m over 30 deg:
+#: slow changes, which sweeps both ways measure).
+HYSTERESIS_LENGTH_DEG = 20.0
 #: Basis functions at least and at most (Riutort-Mayol et al. 2023's rule in between).
 SMOOTH_FUNCTIONS = (8, 40)
 #: Posterior weight on the grid's largest amplitude beyond which a study is told the passive
@@ -129,10 +135,13 @@ CHECK_TOLERANCE = 0.05
 #: ... and this many times what the trial's white noise leaves in the same projection; a
 #: rest hold's mean residual likewise against its standard error.
 CHECK_RATIO = 5.0
-#: The smallest noise variance of a trial's block mean (N^2 m^2): a hundred-thousandth of a
-#: N m, far below any dynamometer's resolution, so exact (simulated) sweeps keep the
-#: regression well conditioned.
-_NOISE_FLOOR = 1e-10
+#: The smallest prior variance of a smooth coefficient (its spectral density underflows at
+#: long length-scales): far below anything the data could move.
+_VARIANCE_FLOOR = 1e-16
+#: The smallest noise variance of a trial's block mean (N^2 m^2): a thousandth of a N m,
+#: ten times below a dynamometer's torque resolution, so exact (simulated) sweeps keep the
+#: regression well conditioned beside the smooth part's widest priors.
+_NOISE_FLOOR = 1e-6
 #: Gauss-Newton iterations of the rotations and the noise weights, at most.
 _ITERATIONS = 30
 #: Convergence of the rotations (rad) and of the weights (relative).
@@ -230,8 +239,9 @@ class SmoothPassive:
     integrated over by the evidence of each point (:func:`fit_statics`).
 
     ``centre`` and ``half_range`` are joint angles (rad); ``lengths`` in rad, ``amplitudes``
-    in N m. The slope of the hysteresis over the range uses the same ``centre`` and
-    ``half_range`` (:meth:`unit`).
+    in N m. The hysteresis' change over the range, ``h(theta_j) = h + sum_m eta_m phi_m``,
+    takes the first :attr:`hysteresis_functions` of the same functions with fixed
+    hyperparameters (:meth:`hysteresis_variances`).
     """
 
     centre: float
@@ -264,9 +274,23 @@ class SmoothPassive:
         """Every ``(amplitude, length)`` of the hyperprior, equally likely a priori."""
         return [(a, ell) for a in self.amplitudes for ell in self.lengths]
 
-    def unit(self, theta_j: NDArray) -> NDArray:
-        """``(theta_j - centre) / half_range``: -1 to 1 over the sweeps."""
-        return (np.asarray(theta_j, dtype=np.float64) - self.centre) / self.half_range
+    @property
+    def hysteresis_functions(self) -> int:
+        """How many functions the hysteresis' change takes (for its length-scale)."""
+        need = math.ceil(
+            1.75 * SMOOTH_BOUNDARY * self.half_range / math.radians(HYSTERESIS_LENGTH_DEG)
+        )
+        return int(min(max(need, 2), self.functions))
+
+    @property
+    def hysteresis_names(self) -> tuple[str, ...]:
+        """The coefficients ``hysteresis_shape:1`` ... of the hysteresis' change."""
+        return tuple(f"hysteresis_shape:{m}" for m in range(1, self.hysteresis_functions + 1))
+
+    def hysteresis_variances(self, sd: float) -> NDArray:
+        """Prior variances of the hysteresis' change: amplitude ``sd`` (N m)."""
+        var = self.variances(sd, math.radians(HYSTERESIS_LENGTH_DEG))
+        return var[: self.hysteresis_functions]
 
     def columns(self, theta_j: NDArray) -> list[NDArray]:
         """``phi_m`` at joint angles ``theta_j`` (rad); 0 beyond the domain."""
@@ -315,11 +339,27 @@ class _Prepared:
     direction: int
 
 
+#: Samples of the running median a sweep's moving part is found on (about 50 ms at 1 kHz).
+_STEADY_SAMPLES = 51
+
+
+def _moving(theta: NDArray) -> slice:
+    """A sweep's moving part, found on its angle's running median.
+
+    :func:`~inertiafit.processing.gravity.moving_part` on the raw angle starts at the first
+    sample whose noise passes its threshold: a real angle channel's noise (a fifth of a
+    degree, and a filter's glitch at the first sample) kept the holds before and after a
+    sweep in it, and counted them as moving.
+    """
+    size = min(_STEADY_SAMPLES, max(1, (theta.size // 10) | 1))
+    return moving_part(scipy.ndimage.median_filter(theta, size=size, mode="mirror"))
+
+
 def _prepare(record: StaticRecord) -> _Prepared:
     theta, y = np.asarray(record.angle, float), np.asarray(record.torque, float)
     direction = 0
     if record.kind != "rest":
-        part = moving_part(theta)
+        part = _moving(theta)
         theta, y = theta[part], y[part]
         direction = 1 if theta[-1] >= theta[0] else -1
     size = max(1, math.ceil(theta.size / MAX_BLOCKS))
@@ -360,17 +400,22 @@ class TrialCheck:
         )
 
 
-def _check(prep: _Prepared, resid: NDArray) -> TrialCheck:
-    """:class:`TrialCheck` of one trial from its block residuals."""
+def _check(
+    prep: _Prepared, resid: NDArray, *, offset: float = 0.0, band: float = 0.0
+) -> TrialCheck:
+    """:class:`TrialCheck` of one trial from its block residuals.
+
+    A rest hold's ``offset`` (its own, fitted) is put back, and only what lies beyond the
+    hysteresis ``band`` (N m) it may hold at rest counts.
+    """
     record = prep.record
     n = resid.size
     white = math.sqrt(float(np.mean(np.diff(resid) ** 2)) / 2.0) if n > 2 else math.nan
     if record.kind == "rest" or n <= CHECK_DEGREE + 2:
         tau = integrated_autocorrelation_time(resid) if n > 8 else 1.0
         sd = float(np.std(resid))
-        return TrialCheck(
-            record.source, record.kind, abs(float(np.mean(resid))), sd * math.sqrt(tau / n)
-        )
+        beyond = max(abs(float(np.mean(resid)) + offset) - abs(band), 0.0)
+        return TrialCheck(record.source, record.kind, beyond, sd * math.sqrt(tau / n))
     span = prep.theta.max() - prep.theta.min()
     t = 2.0 * (prep.theta - prep.theta.min()) / span - 1.0 if span > 0 else np.zeros(n)
     basis = np.polynomial.legendre.legvander(t, CHECK_DEGREE)
@@ -510,8 +555,10 @@ class LivingStatics:
             moving = np.where(np.abs(v) > REST_SPEED, np.sign(v), 0.0)
             cols[self.index("hysteresis")] = moving
             if self.smooth is not None:
-                unit = self.smooth.unit(self.basis.zero + np.asarray(angle, float))
-                cols[self.index("hysteresis_slope")] = moving * unit
+                joint = self.basis.zero + np.asarray(angle, float)
+                shapes = self.smooth.columns(joint)
+                for name, col in zip(self.smooth.hysteresis_names, shapes, strict=False):
+                    cols[self.index(name)] = moving * col
         return cols
 
     def curve(self, condition: str, posture: str, direction: int) -> StaticCurve:
@@ -724,12 +771,42 @@ class LivingStatics:
             cols = [*cols, *self.smooth.columns(self.basis.zero + theta)]
         return np.column_stack(cols)
 
+    def hold_prediction(
+        self, theta: NDArray, condition: str, posture: str
+    ) -> tuple[NDArray, NDArray]:
+        """What a quiet hold at device angles ``theta`` (rad) would read: ``(mean, sd)``, N m.
+
+        The static curve's midline there (gravity, the passive curve and the condition's
+        offset; no hysteresis) with its error, and the band a joint at rest holds any
+        moment within: ``+-h(theta_j)``, uniform, so a variance ``h^2 / 3`` more.
+        """
+        theta = np.atleast_1d(np.asarray(theta, dtype=np.float64))
+        x = _matrix(self.columns(theta, condition, posture, 0), theta)
+        mean = x @ self.coefficients
+        var = np.einsum("ij,jk,ik->i", x, self.covariance, x)
+        band = np.array(
+            [
+                _hysteresis_at(self.names, self.coefficients, self.smooth, self.basis.zero + t)
+                for t in theta
+            ]
+        )
+        return mean, np.sqrt(var + band**2 / 3.0)
+
+    def _hysteresis_shapes(self, theta: NDArray) -> list[NDArray]:
+        """The functions of the hysteresis' change at device angles ``theta`` (rad)."""
+        if self.smooth is None:
+            return []
+        shapes = self.smooth.columns(self.basis.zero + np.asarray(theta, dtype=np.float64))
+        return shapes[: self.smooth.hysteresis_functions]
+
     def passive_curve(self, step_deg: float = 2.0) -> pd.DataFrame:
         """The passive elastic moment over the swept range, relative to its middle.
 
         Columns ``joint_angle`` (deg), ``device_angle`` (deg), ``median``, ``lower``,
         ``upper`` (N m, the 95 % band), ``prior_lower``, ``prior_upper`` (the passive
-        prior's 95 % band, also relative to the middle) and ``gravity:<condition>``: each
+        prior's 95 % band, also relative to the middle), ``hysteresis``,
+        ``hysteresis_lower``, ``hysteresis_upper`` (N m: the direction-dependent moment
+        ``h(theta_j)`` and its 95 % band) and ``gravity:<condition>``: each
         living condition's gravity moment ``M_g sin(theta + phi)`` in the first posture,
         relative to its middle too, to set the two side by side.
         """
@@ -759,6 +836,17 @@ class LivingStatics:
                 "prior_upper": prior_mean + z * prior_sd,
             }
         )
+        # the direction-dependent moment h(theta_j): the constant and its change over the range
+        names = ["hysteresis", *(self.smooth.hysteresis_names if self.smooth else ())]
+        hidx = [self.index(n) for n in names]
+        hcols = np.column_stack(
+            [np.ones_like(theta), *self._hysteresis_shapes(theta)[: len(names) - 1]]
+        )
+        h_mean = hcols @ self.coefficients[hidx]
+        h_sd = np.sqrt(np.einsum("ij,jk,ik->i", hcols, self.covariance[np.ix_(hidx, hidx)], hcols))
+        table["hysteresis"] = h_mean
+        table["hysteresis_lower"] = h_mean - z * h_sd
+        table["hysteresis_upper"] = h_mean + z * h_sd
         for cond in self.conditions:  # the gravity moment beside it, on the same footing
             a = self.coefficients[self.index(f"A:{cond}")]
             b = self.coefficients[self.index(f"B:{cond}")]
@@ -776,15 +864,21 @@ def _columns(
     basis: PassiveBasis,
     coefficients: NDArray,
     smooth: SmoothPassive | None = None,
+    hold: str = "",
 ) -> list[NDArray | float]:
-    """The design: one entry per coefficient, an array or a constant."""
+    """The design: one entry per coefficient, an array or a constant.
+
+    ``hold``: a rest trial's own offset coefficient (``hold:<n>``), 1 in its own trial.
+    """
     tilt = math.cos(posture.tilt)
     angle = theta + posture.rotation
     passive = dict(zip(basis.names, basis.columns(theta), strict=True))
     if smooth is not None:
         theta_j = basis.zero + theta
-        passive |= dict(zip(smooth.names, smooth.columns(theta_j), strict=True))
-        passive["hysteresis_slope"] = direction * smooth.unit(theta_j)
+        functions = smooth.columns(theta_j)
+        passive |= dict(zip(smooth.names, functions, strict=True))
+        for name, col in zip(smooth.hysteresis_names, functions, strict=False):
+            passive[name] = direction * col
     out: list[NDArray | float] = []
     for name in names:
         kind, _, rest = name.partition(":")
@@ -796,6 +890,8 @@ def _columns(
             out.append(1.0 if rest == f"{condition}:{posture.name}" else 0.0)
         elif kind == "hysteresis":
             out.append(float(direction))
+        elif kind == "hold":
+            out.append(1.0 if name == hold else 0.0)
         elif kind == "rotation":
             if rest != posture.name:
                 out.append(0.0)
@@ -846,31 +942,59 @@ def _layout(
     used: Sequence[str],
     basis: PassiveBasis,
     smooth: SmoothPassive | None,
+    holds: Sequence[str] = (),
 ) -> tuple[tuple[str, ...], NDArray, NDArray]:
-    """The coefficients' names, prior means and prior precisions (0: flat or per grid point)."""
+    """The coefficients' names, prior means and prior precisions (0: flat or per grid point).
+
+    ``holds`` names the rest trials' own offsets (their priors are set by the caller:
+    :func:`_hold_sd`).
+    """
     names = (
         *[f"{k}:{c}" for c in conditions for k in ("A", "B")],
         *[f"C:{pc}" for pc in pairs],
         "hysteresis",
-        *(("hysteresis_slope",) if smooth is not None else ()),
+        *(smooth.hysteresis_names if smooth is not None else ()),
         *basis.names,
         *(smooth.names if smooth is not None else ()),
+        *holds,
         *[f"rotation:{p}" for p in used[1:]],
     )
     prior_mean = np.zeros(len(names))
     prior_prec = np.zeros(len(names))
     known = [("hysteresis", basis.hysteresis), *zip(basis.names, basis.priors, strict=True)]
-    if smooth is not None:  # the slope over the range: as large as the hysteresis itself
-        known.append(("hysteresis_slope", (0.0, basis.hysteresis[1])))
+    if smooth is not None:  # the hysteresis' change over the range: as large as it
+        variances = smooth.hysteresis_variances(basis.hysteresis[1])
+        sds = np.sqrt(np.maximum(variances, _VARIANCE_FLOOR))
+        known += [
+            (n, (0.0, float(sd))) for n, sd in zip(smooth.hysteresis_names, sds, strict=True)
+        ]
     for name, (mean, sd) in known:
         prior_mean[names.index(name)] = mean
         prior_prec[names.index(name)] = 1.0 / sd**2
     return names, prior_mean, prior_prec
 
 
-#: The smallest prior variance of a smooth coefficient (its spectral density underflows at
-#: long length-scales): far below anything the data could move.
-_VARIANCE_FLOOR = 1e-16
+def _hysteresis_at(
+    names: Sequence[str], coef: NDArray, smooth: SmoothPassive | None, theta_j: float
+) -> float:
+    """``h(theta_j)`` (N m) under coefficients ``coef``: the constant and its change."""
+    value = float(coef[names.index("hysteresis")])
+    if smooth is not None:
+        shapes = smooth.columns(np.array([theta_j]))
+        for name, col in zip(smooth.hysteresis_names, shapes, strict=False):
+            value += float(coef[names.index(name)] * col[0])
+    return value
+
+
+def _hold_sd(hysteresis: float, basis: PassiveBasis) -> float:
+    """The prior SD of a rest hold's own offset.
+
+    A joint at rest holds any moment within its hysteresis band ``+-h`` (as a friction at
+    rest holds any torque within its band): the hold's offset from the curve's midline is
+    uniform there, taken as a normal of the same variance, ``h / sqrt(3)``, with ``h`` the
+    fitted hysteresis or, while it is smaller, its prior's SD.
+    """
+    return max(abs(hysteresis), basis.hysteresis[1]) / math.sqrt(3.0)
 
 
 @dataclass(frozen=True)
@@ -916,13 +1040,21 @@ class _Regression:
                 log_prior = -0.5 * float(np.sum(np.log(v)))
             gram = self.gram + np.diag(prec)
             rhs = self.rhs + prec * self.prior_mean
+            # scaled to a unit diagonal first: the data's and the priors' precisions differ
+            # by many orders of magnitude (exact sweeps, the smallest smooth variances)
+            diag = np.diag(gram)
+            if not np.all(diag > 0):
+                raise np.linalg.LinAlgError("singular")
+            d = 1.0 / np.sqrt(diag)
             try:
-                factor = scipy.linalg.cho_factor(gram)
+                factor = scipy.linalg.cho_factor(gram * np.outer(d, d))
             except scipy.linalg.LinAlgError:
                 raise np.linalg.LinAlgError("singular") from None
-            mean = scipy.linalg.cho_solve(factor, rhs)
-            cov = scipy.linalg.cho_solve(factor, np.eye(n))
-            logdet = 2.0 * float(np.sum(np.log(np.diag(factor[0]))))
+            mean = d * scipy.linalg.cho_solve(factor, d * rhs)
+            cov = np.outer(d, d) * scipy.linalg.cho_solve(factor, np.eye(n))
+            logdet = 2.0 * float(np.sum(np.log(np.diag(factor[0])))) - 2.0 * float(
+                np.sum(np.log(d))
+            )
             quad = self.yy + float(self.prior_mean @ (prec * self.prior_mean) - mean @ rhs)
             log_ev = -0.5 * quad + log_prior - 0.5 * logdet
             if self.expected:
@@ -996,7 +1128,12 @@ def design_statics(
     )
     order = [p.name for p in postures]
     pairs = [f"{condition}:{p}" for p in order]
-    names, prior_mean, prior_prec = _layout((condition,), pairs, order, basis, smooth)
+    held = {(p, i): f"hold:{p}:{i}" for p in order for i in range(rest_trials)}
+    names, prior_mean, prior_prec = _layout(
+        (condition,), pairs, order, basis, smooth, tuple(held.values())
+    )
+    for name in held.values():
+        prior_prec[names.index(name)] = 1.0 / _hold_sd(basis.hysteresis[0], basis) ** 2
     coef = prior_mean.copy()
     coef[names.index(f"A:{condition}")] = moment * math.cos(phase)
     coef[names.index(f"B:{condition}")] = moment * math.sin(phase)
@@ -1013,9 +1150,11 @@ def design_statics(
             cols = _columns(names, theta, condition, posture, direction, basis, coef, smooth)
             x = _matrix(cols, theta)
             gram += (x.T @ x) / per_block
-        if rest_trials:
-            cols = _columns(names, holds, condition, posture, 0, basis, coef, smooth)
-            x = _matrix(cols, holds)
+        for i, angle in enumerate(holds):
+            at = np.array([angle])
+            name = held[posture.name, i]
+            cols = _columns(names, at, condition, posture, 0, basis, coef, smooth, name)
+            x = _matrix(cols, at)
             gram += (x.T @ x) / (per_second / rest_seconds)
     index, variances = _smooth_prior(smooth, names)
     # noise-free data at the nominal values: y = X coef, so X'Wy = gram coef
@@ -1098,7 +1237,10 @@ def fit_statics(
         if basis.smooth
         else None
     )
-    names, prior_mean, prior_prec = _layout(conditions, pairs, used, basis, smooth)
+    holds = {k: f"hold:{k}" for k, p in enumerate(prepared) if p.record.kind == "rest"}
+    names, prior_mean, prior_prec = _layout(
+        conditions, pairs, used, basis, smooth, tuple(holds.values())
+    )
     index, variances = _smooth_prior(smooth, names)
     n_coef = len(names)
     ref = postures[reference]
@@ -1119,6 +1261,9 @@ def fit_statics(
                 mean0[i], prec0[i] = -shift[p], 1.0 / rot_sd[p] ** 2  # on the whole shift
             else:
                 mean0[i], prec0[i] = 0.0, 0.0
+        for k, name in holds.items():  # within the hysteresis band the fit has so far
+            band = _hysteresis_at(names, coef, smooth, basis.zero + prepared[k].theta.mean())
+            prec0[names.index(name)] = 1.0 / _hold_sd(band, basis) ** 2
         gram = np.zeros((n_coef, n_coef))
         rhs = np.zeros(n_coef)
         yy = 0.0
@@ -1133,6 +1278,7 @@ def fit_statics(
                 basis,
                 coef,
                 smooth,
+                holds.get(k, ""),
             )
             x = _matrix(cols, prep.theta)
             designs.append(x)
@@ -1169,7 +1315,12 @@ def fit_statics(
         if converged and iteration >= 2:
             break
     checks = {
-        prep.record.source: _check(prep, stacked_y[k] - designs[k] @ coef)
+        prep.record.source: _check(
+            prep,
+            stacked_y[k] - designs[k] @ coef,
+            offset=float(coef[names.index(holds[k])]) if k in holds else 0.0,
+            band=_hysteresis_at(names, coef, smooth, basis.zero + prep.theta.mean()),
+        )
         for k, prep in enumerate(prepared)
     }
     noise = {
@@ -1217,7 +1368,7 @@ def _condition_noise(
         if record.kind != "quasi-static" or not record.rate > 0:
             continue
         theta = np.asarray(record.angle, float)
-        part = moving_part(theta)
+        part = _moving(theta)
         theta, y = theta[part], np.asarray(record.torque, float)[part]
         cols = _columns(
             names,
@@ -1245,7 +1396,6 @@ _UNITS = {
     "stop_high_wide": "N m",
     "curve_scale": "1",
     "hysteresis": "N m",
-    "hysteresis_slope": "N m",
     "smooth_amplitude": "N m",
     "smooth_length": "deg",
     "damping": "N m s/rad",
@@ -1276,6 +1426,9 @@ CURVE_COLUMNS = (
     "upper",
     "prior_lower",
     "prior_upper",
+    "hysteresis",
+    "hysteresis_lower",
+    "hysteresis_upper",
 )
 
 
@@ -1331,12 +1484,6 @@ def living_tables(
         add(name, _UNITS[name], *statics.value(name), prior)
     add("hysteresis", "N m", *statics.value("hysteresis"), statics.basis.hysteresis)
     if statics.smooth is not None:
-        add(
-            "hysteresis_slope",
-            _UNITS["hysteresis_slope"],
-            *statics.value("hysteresis_slope"),
-            (0.0, statics.basis.hysteresis[1]),
-        )
         for name, (mean, sd, lower, upper) in statics.hyperparameters().items():
             add(name, _UNITS[name], mean, sd)
             rows[-1] |= {"lower": lower, "upper": upper}
