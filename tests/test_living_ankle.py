@@ -162,3 +162,19 @@ def test_the_tibialis_anterior_reads_as_quiet():
         assert active < 0.02 * 17.0
         burst = emg_activity(_emg_trial(name, burst=True), rest)
         assert ((burst["start"] < 9.1) & (burst["end"] > 9.2) & (burst["peak_ratio"] > 3.0)).any()
+
+
+def test_the_tutorial_s_ankle_code_runs_as_printed(monkeypatch):
+    # docs/tutorials/living-forearm.md shows this fit: its code block, run from the
+    # repository's root as a reader would, gives the holds' predictions
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "tutorials" / "living-forearm.md").read_text(encoding="utf-8")
+    start = text.index("```python\nimport numpy as np, pandas as pd\n")
+    code = text[start + len("```python\n") : text.index("```", start + 10)]
+    monkeypatch.chdir(root)
+    namespace: dict = {}
+    exec(compile(code, "living-forearm.md", "exec"), namespace)  # noqa: S102 - our own docs
+    mean, sd = namespace["mean"], namespace["sd"]
+    assert mean.shape == sd.shape == (3,)
+    assert np.all((sd > 0.3) & (sd < 1.0))
+    assert np.all(np.diff(mean) > 0)  # the ankle's moment rises toward plantarflexion

@@ -8,6 +8,7 @@ of ``benchmarks/living_shapes.py`` (the smooth curve and the fixed one on the sa
 import math
 import shutil
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -123,3 +124,85 @@ def test_small_seeded_shapes_two_postures():
         assert abs(r["smooth M_g z"]) < 3.0
         fixed_fails += "fixed refused" in r or not r["fixed M_g inside"]
     assert fixed_fails >= 2
+
+
+@pytest.fixture(scope="module")
+def measured_rotation(tmp_path_factory):
+    """A two-posture study whose rigid attachment is swept in both postures; a cubic elbow."""
+    rng = np.random.default_rng([9, 32])
+    passive = living_shapes.draw_passive(rng, "cubic")
+    root = tmp_path_factory.mktemp("rotation")
+    manifest = simulate_living_study(
+        root,
+        seed=9,
+        postures="two",
+        passive=passive,
+        declare_stops=False,
+        trials_per_speed=2,
+        rigid_rotation_sweeps=True,
+    )
+    truth = tomllib.loads((root / "truth.toml").read_text())
+    return manifest, truth
+
+
+def _declare(manifest: Path, rotation: float, *, rigid_sweep: bool = True) -> Path:
+    """The same study with the rotated posture declared at ``rotation`` deg."""
+    text = manifest.read_text().replace(
+        "gravity_rotation = 45.0", f"gravity_rotation = {rotation}"
+    )
+    if not rigid_sweep:  # today's design: the rigid condition in the first posture only
+        entry = '[[trials]]\nfile = "data/A_rotated_quasistatic.csv"'
+        start = text.index(entry)
+        end = text.index("[[trials]]", start + len(entry))
+        text = text[:start] + text[end:]
+    out = manifest.with_name(f"declared_{rotation:g}_{int(rigid_sweep)}.toml")
+    out.write_text(text)
+    return out
+
+
+def test_a_rigid_sweep_measures_the_rotation_and_the_declared_one_is_checked(measured_rotation):
+    # With a smooth passive curve two postures measure M_g sin(r/2) and the phase alone, so
+    # M_g hangs on the rotation r. The attachment swept in both postures measures r to a
+    # fraction of a degree: M_g is then right whatever the manifest declares (30 deg or the
+    # sign flipped, against a true 45 +- 2), and a declaration that far off is said, naming
+    # the key. Without that sweep (negative control) a 30 deg declaration moves M_g by more
+    # than 3 SEs, silently as far as the rotation goes.
+    manifest, truth = measured_rotation
+    true_rotation = truth["passive"]["postures"]["rotated"]["gravity_rotation"]
+    true_moment = truth["conditions"]["B"]["gravity_moment"]
+    right = process_study(_declare(manifest, 45.0))
+    fit = right.gravity[LIVING]
+    rotation = math.degrees(right.living.postures["rotated"].rotation)
+    assert abs(rotation - true_rotation) < 1.0
+    assert abs(fit.gravity_moment - true_moment) < 3.0 * fit.gravity_moment_se
+    assert not any("gravity_rotation" in w for w in right.warnings)
+    for declared in (30.0, -45.0):
+        wrong = process_study(_declare(manifest, declared))
+        assert wrong.gravity[LIVING].gravity_moment == pytest.approx(fit.gravity_moment, rel=1e-6)
+        said = [w for w in wrong.warnings if "postures.rotated.gravity_rotation" in w]
+        assert len(said) == 1
+        assert "a rigid sweep measures" in said[0]
+    unmeasured = process_study(_declare(manifest, 45.0, rigid_sweep=False))
+    assert unmeasured.gravity[LIVING].gravity_moment_se > 2.0 * fit.gravity_moment_se
+    slipped = process_study(_declare(manifest, 30.0, rigid_sweep=False)).gravity[LIVING]
+    assert abs(slipped.gravity_moment - true_moment) > 3.0 * slipped.gravity_moment_se
+
+
+def test_a_rigid_condition_s_fast_trials_share_one_posture(measured_rotation, tmp_path):
+    manifest, _ = measured_rotation
+    text = manifest.read_text()
+    entry = '[[trials]]\nfile = "data/A_180_01.csv"\nbodies = ["attachment"]'
+    start = text.index(entry)
+    posture = text.index('posture = "upright"', start)
+    moved = text[:posture] + 'posture = "rotated"' + text[posture + len('posture = "upright"') :]
+    bad = manifest.with_name("moved.toml")
+    bad.write_text(moved)
+    with pytest.raises(InputError, match=r"condition attachment: fast trials in postures") as err:
+        process_study(bad)
+    assert "\n" not in str(err.value)
+    tilted = manifest.with_name("tilted.toml")
+    tilted.write_text(
+        text.replace("axis_tilt = 0.0\n\n[[trials]]", "axis_tilt = 20.0\n\n[[trials]]", 1)
+    )
+    with pytest.raises(InputError, match=r"posture 'rotated' tilts the axis \(20 deg\)"):
+        process_study(tilted)

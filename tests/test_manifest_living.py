@@ -226,6 +226,15 @@ BAD = {
         VALID.replace("joint_angle_at_zero = 90\n", "joint_angle_at_zero = 90\nstiff = 1\n"),
         r"passive\.stiff: unknown key \(allowed: joint, joint_angle_at_zero, curve, stiffness,",
     ),
+    "stiffness per degree": (
+        VALID.replace(
+            "stiffness = { mean = 1.5, sd = 0.3 }", "stiffness = { mean = 0.03, sd = 0.01 }"
+        ),
+        (
+            r"passive\.stiffness: mean 0\.03 N m/rad is 37 times below .* looks like a value "
+            r"per degree; give it per radian: \{ mean = 1\.72, sd = 0\.573 \}"
+        ),
+    ),
     "unknown passive curve": (
         VALID.replace(
             "joint_angle_at_zero = 90\n", 'joint_angle_at_zero = 90\ncurve = "spline"\n'

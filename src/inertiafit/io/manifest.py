@@ -1098,6 +1098,8 @@ def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:
         if key in table:
             values[key] = check_passive_entry(key, table[key], f"{here}.{key}")
             sources[key] = "manifest"
+            if key in _PER_RADIAN and key in shipped:
+                _check_per_radian(key, values[key], shipped[key]["value"], f"{here}.{key}")
         elif key in shipped:
             values[key] = shipped[key]["value"]
             sources[key] = shipped[key]["source"]
@@ -1106,6 +1108,32 @@ def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:
     return PassivePrior(
         joint=joint, joint_angle_at_zero=at_zero, sources=sources, curve=curve, **values
     )
+
+
+#: ``[passive]`` entries per radian, which a value per degree would make 57 times too small.
+_PER_RADIAN = ("stiffness",)
+
+
+def _check_per_radian(
+    key: str, value: tuple[float, float], shipped: tuple[float, float], where: str
+) -> None:
+    """Refuse a prior per radian that was written per degree.
+
+    Such a value is more than 20 times below the joint's shipped prior mean while, times
+    180/pi, it would sit within 2 of its SDs: a stiffness of 0.03 N m/deg written as 0.03
+    N m/rad for an elbow of 1.7 N m/rad moved the forearm's I by +170 % (issue 36).
+    """
+    mean, sd = value
+    ref_mean, ref_sd = shipped
+    per_degree = math.degrees(mean)
+    if 0 <= 20.0 * mean < ref_mean and abs(per_degree - ref_mean) <= 2.0 * ref_sd:
+        unit = PASSIVE_ENTRIES[key][0]
+        raise _fail(
+            where,
+            f"mean {mean:g} {unit} is {ref_mean / mean if mean else math.inf:.0f} times below "
+            f"the joint's prior ({ref_mean:g} +- {ref_sd:g}) and looks like a value per degree; "
+            f"give it per radian: {{ mean = {per_degree:.3g}, sd = {math.degrees(sd):.3g} }}",
+        )
 
 
 def _postures(value: object, *, where: str) -> dict[str, Posture]:

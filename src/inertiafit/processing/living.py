@@ -150,12 +150,23 @@ _TOLERANCE = 1e-10
 
 @dataclass(frozen=True)
 class PostureGeometry:
-    """A posture's gravity: rotation ``r`` (rad), its prior SD (rad; ``inf`` free), tilt (rad)."""
+    """A posture's gravity: rotation ``r`` (rad), its prior SD (rad; ``inf`` free), tilt (rad).
+
+    ``measured_sd`` (rad): the rotation relative to the reference posture was measured (by
+    a rigid condition swept in both) to this SD, which then replaces the declared SDs.
+    """
 
     name: str
     rotation: float = 0.0
     rotation_sd: float = math.radians(2.0)
     tilt: float = 0.0
+    measured_sd: float | None = None
+
+    def relative_sd(self, reference: PostureGeometry) -> float:
+        """The prior SD (rad) of this posture's rotation relative to ``reference``."""
+        if self.measured_sd is not None:
+            return self.measured_sd
+        return math.hypot(reference.rotation_sd, self.rotation_sd)
 
 
 @dataclass(frozen=True)
@@ -1140,7 +1151,7 @@ def design_statics(
     ref = postures[0]
     for posture in postures[1:]:
         i = names.index(f"rotation:{posture.name}")
-        sd = math.hypot(ref.rotation_sd, posture.rotation_sd)
+        sd = posture.relative_sd(ref)
         prior_prec[i] = 1.0 / sd**2 if math.isfinite(sd) else 0.0
     holds = theta[np.linspace(0, blocks - 1, rest_trials + 2).astype(int)[1:-1]]
     gram = np.zeros((len(names), len(names)))
@@ -1246,7 +1257,7 @@ def fit_statics(
     ref = postures[reference]
     geometry = {p: postures[p] for p in order}
     shift = dict.fromkeys(used[1:], 0.0)  # the rotation fitted, beyond its nominal value
-    rot_sd = {p: math.hypot(ref.rotation_sd, postures[p].rotation_sd) for p in used[1:]}
+    rot_sd = {p: postures[p].relative_sd(ref) for p in used[1:]}
     coef = np.zeros(n_coef)
     coef[names.index(f"A:{conditions[0]}")] = 1.0  # only for the first rotation column
     weights = np.ones(len(prepared))
@@ -1306,8 +1317,8 @@ def fit_statics(
             i = names.index(f"rotation:{p}")
             step = max(step, abs(float(new[i])))
             shift[p] += float(new[i])
-            geometry[p] = PostureGeometry(
-                p, postures[p].rotation + shift[p], postures[p].rotation_sd, postures[p].tilt
+            geometry[p] = dataclasses.replace(
+                postures[p], rotation=postures[p].rotation + shift[p]
             )
             new[i] = 0.0
         converged = step < _TOLERANCE and np.allclose(weights, new_weights, rtol=1e-6)

@@ -495,6 +495,8 @@ def _process(
     living_conditions = _living_conditions(study)
     postures = _posture_geometry(study)
     qs_fits: dict[str, list[GravityFit]] = {}
+    homes = _check_rigid_postures(study, living_conditions)
+    rotation_fits: dict[str, dict[str, list[GravityFit]]] = {}
     records: list[StaticRecord] = []
     for spec, ds in data:
         if spec.kind == "rest":
@@ -549,12 +551,17 @@ def _process(
         if emg_flag:
             fit = dataclasses.replace(fit, flags=(*fit.flags, *emg_flag))
         notes.extend(f"{fit.source}: {flag}" for flag in fit.flags if flag != LIVING_ROW_FLAG)
-        qs_fits.setdefault(spec.condition, []).append(fit)
+        if rigid and spec.posture != homes[spec.condition]:
+            # a rigid sweep away from the condition's fast trials: it measures the posture's
+            # gravity rotation (its phase), not the condition's M_g
+            by_posture = rotation_fits.setdefault(spec.condition, {})
+            by_posture.setdefault(spec.posture, []).append(fit)
+        else:
+            qs_fits.setdefault(spec.condition, []).append(fit)
         rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
         if spec.condition in living_conditions:
             records.append(_record(spec, fitted))
     run.check_left(qs_fits, "quasi-static")
-    _check_rigid_postures(study, living_conditions)
     _check_gravity_scatter(study, qs_fits, living_conditions)
     gravity = {
         cond: combine_gravity(fits, f"{study.path}: condition {cond}")
@@ -565,6 +572,7 @@ def _process(
     if living_conditions:
         say("fitting gravity and the passive curve of the living body together")
         assert study.passive is not None
+        postures = _measured_rotations(study, postures, gravity, homes, rotation_fits, notes)
         statics = fit_statics(
             records, postures, passive_basis(study.passive), where=f"{study.path}: [passive]"
         )
@@ -575,6 +583,7 @@ def _process(
                 "iterations); its M_g is the last iteration's"
             )
         _apply_checks(study, statics, data, rows, notes)
+        _check_rotations(study, statics, postures, notes)
         if statics.at_amplitude_edge() > SMOOTH_EDGE_WEIGHT:
             notes.append(
                 f"{study.path}: the passive curve's smooth part took the largest amplitude its "
@@ -843,6 +852,49 @@ def _apply_checks(
     )
 
 
+#: A posture's fitted gravity rotation this many prior SDs from its declaration is warned of...
+ROTATION_WARN_SD = 3.0
+#: ... and this many refuses the study (a sign, a label or a protractor reading gone wrong).
+ROTATION_REFUSE_SD = 6.0
+
+
+def _check_rotations(
+    study: Study,
+    statics: LivingStatics,
+    declared: dict[str, PostureGeometry],
+    notes: list[str],
+) -> None:
+    """Each posture's fitted gravity rotation against its declaration (issue 36).
+
+    The sweeps measure the rotation between postures; one far from what the manifest says
+    (``[postures.<name>] gravity_rotation``) is a slip there — a sign, swapped labels, a
+    reading — which a normal prior of 2 deg would otherwise pull the fit through, moving
+    ``M_g``. Beyond :data:`ROTATION_WARN_SD` prior SDs a warning names the key; beyond
+    :data:`ROTATION_REFUSE_SD` the study is refused.
+    """
+    names = list(statics.postures)
+    if len(names) < 2:
+        return
+    ref = declared[names[0]]
+    for name in names[1:]:
+        sd = declared[name].relative_sd(ref)
+        if not math.isfinite(sd):
+            continue
+        fitted = statics.postures[name].rotation
+        off = (fitted - declared[name].rotation) / sd
+        if abs(off) <= ROTATION_WARN_SD:
+            continue
+        said = (
+            f"{study.path}: postures.{name}.gravity_rotation: declared "
+            f"{math.degrees(declared[name].rotation):g} deg, the sweeps put it at "
+            f"{math.degrees(fitted):.1f} deg ({abs(off):.1f} prior SDs away, against "
+            f"postures.{names[0]}); check its value, its sign and the trials' posture labels"
+        )
+        if abs(off) > ROTATION_REFUSE_SD:
+            raise InputError(f'{said} (or give gravity_rotation_sd = "free" to fit it)')
+        notes.append(said)
+
+
 def _record(spec: TrialSpec, ds: xr.Dataset) -> StaticRecord:
     return StaticRecord(
         angle=ds["angle"].values,
@@ -869,29 +921,96 @@ def _direction(ds: xr.Dataset) -> int:
     return 1 if v[int(np.argmax(np.abs(v)))] >= 0 else -1
 
 
-def _check_rigid_postures(study: Study, living: set[str]) -> None:
-    """A rigid condition's quasi-static trials share one posture with the axis horizontal.
+def _check_rigid_postures(study: Study, living: set[str]) -> dict[str, str]:
+    """Each rigid condition's home posture: that of its fast trials, its M_g's frame.
 
-    Its gravity model is fitted in that posture's frame; trials in two postures would be
-    averaged across rotated curves, and a tilted axis scales ``M_g`` (not modelled for rigid
-    conditions in this version).
+    Its fast trials share one posture, the axis horizontal there; its quasi-static trials
+    may be in others too (axis horizontal), where they measure that posture's gravity
+    rotation (:func:`_measured_rotations`) and do not enter its ``M_g``. A tilted axis scales
+    ``M_g`` (not modelled for rigid conditions in this version).
     """
+    homes = {}
     for cond in study.conditions:
         if cond in living:
             continue
-        used = {t.posture for t in study.trials if t.condition == cond}
-        if len(used) > 1:
+        trials = [t for t in study.trials if t.condition == cond]
+        fast = {t.posture for t in trials if t.kind == "fast"}
+        if len(fast) > 1:
             raise InputError(
-                f"{study.path}: condition {cond}: trials in postures {sorted(used)}; a rigid "
-                "condition is measured in one posture (the phase is fitted per condition)"
+                f"{study.path}: condition {cond}: fast trials in postures {sorted(fast)}; a "
+                "rigid condition's fast trials share one posture (its quasi-static trials may "
+                "be in others, to measure their gravity rotation)"
             )
-        (name,) = used
-        if name and study.postures[name].axis_tilt != 0:
+        home = next(iter(fast)) if fast else trials[0].posture
+        for name in {t.posture for t in trials}:
+            if name and study.postures[name].axis_tilt != 0:
+                raise InputError(
+                    f"{study.path}: condition {cond}: posture '{name}' tilts the axis "
+                    f"({study.postures[name].axis_tilt:g} deg); a rigid condition is measured "
+                    "with the axis horizontal (axis_tilt = 0)"
+                )
+        if not any(t.posture == home and t.kind == "quasi-static" for t in trials):
             raise InputError(
-                f"{study.path}: condition {cond}: posture '{name}' tilts the axis "
-                f"({study.postures[name].axis_tilt:g} deg); a rigid condition is measured with "
-                "the axis horizontal (axis_tilt = 0)"
+                f"{study.path}: condition {cond}: no quasi-static trial in posture '{home}', "
+                "where its fast trials are; its gravity model is fitted there"
             )
+        homes[cond] = home
+    return homes
+
+
+def _measured_rotations(
+    study: Study,
+    postures: dict[str, PostureGeometry],
+    gravity: dict[str, GravityFit],
+    homes: dict[str, str],
+    rotation_fits: dict[str, dict[str, list[GravityFit]]],
+    notes: list[str],
+) -> dict[str, PostureGeometry]:
+    """The postures' gravity rotations that rigid sweeps measured (issue 32, item 2).
+
+    A rigid condition swept in its home posture and in another measures the rotation
+    between them: the difference of its gravity phases there, to a fraction of a degree,
+    where a protractor gives 2 deg. Such a rotation replaces the declared one for the living
+    fit (:attr:`PostureGeometry.measured_sd`, relative to the reference posture, the first);
+    one far from the declaration is said (the manifest's ``gravity_rotation`` to check).
+    """
+    names = list(postures)
+    if not rotation_fits or len(names) < 2:
+        return postures
+    phases: dict[str, dict[str, GravityFit]] = {}
+    for cond, by_posture in rotation_fits.items():
+        phases[cond] = {homes[cond]: gravity[cond]}
+        for name, fits in by_posture.items():
+            phases[cond][name] = combine_gravity(fits, f"{study.path}: condition {cond}")
+    reference = names[0]
+    out = dict(postures)
+    for name in names[1:]:
+        found = [(p[name], p[reference]) for p in phases.values() if name in p and reference in p]
+        if not found:
+            continue
+        # the most precise of the rigid conditions that swept both
+        there, here = min(
+            found, key=lambda f: math.hypot(f[0].gravity_phase_se, f[1].gravity_phase_se)
+        )
+        delta = math.remainder(there.gravity_phase - here.gravity_phase, 2 * math.pi)
+        se = math.hypot(there.gravity_phase_se, here.gravity_phase_se)
+        declared = postures[name].rotation - postures[reference].rotation
+        sd = math.hypot(postures[name].rotation_sd, postures[reference].rotation_sd)
+        off = math.remainder(delta - declared, 2 * math.pi)
+        if math.isfinite(sd) and abs(off) > ROTATION_WARN_SD * math.hypot(sd, se):
+            notes.append(
+                f"{study.path}: postures.{name}.gravity_rotation: declared "
+                f"{math.degrees(declared):g} deg from postures.{reference}, a rigid sweep "
+                f"measures {math.degrees(delta):.1f} +- {math.degrees(se):.1f} deg; the "
+                "measured rotation is used (check the declared value, its sign and the "
+                "trials' posture labels)"
+            )
+        out[name] = dataclasses.replace(
+            postures[name],
+            rotation=postures[reference].rotation + delta,
+            measured_sd=max(se, 1e-6),
+        )
+    return out
 
 
 class _Run:

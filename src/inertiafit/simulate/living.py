@@ -383,6 +383,7 @@ def simulate_living_study(
     priors: Mapping[str, str | Mapping[str, Any]] | None = None,
     passive_prior: Mapping[str, Any] | None = None,
     declare_stops: bool = True,
+    rigid_rotation_sweeps: bool = False,
     name: str = "Simulated living study",
     emg: EmgSimulation | None = None,
 ) -> Path:
@@ -463,6 +464,10 @@ def simulate_living_study(
         Write the true ``range`` and ``stop_width`` into ``[passive]`` (default), as a lab that
         measured them would; ``False`` leaves them to the joint's prior file, as a lab that
         did not would, so the stops sit where the analysis does not expect them.
+    rigid_rotation_sweeps : bool
+        Also sweep the rigid condition (quasi-statically, up) in every posture after the first
+        whose axis is horizontal (``A_<posture>_quasistatic.csv``): each measures that
+        posture's gravity rotation. Default False: the files exactly as without the option.
     name : str
         The manifest's ``name``.
     emg : EmgSimulation, optional
@@ -505,7 +510,7 @@ def simulate_living_study(
         rest_angles = [math.degrees(lo + f * (hi - lo)) for f in (1 / 6, 1 / 2, 5 / 6)]
 
     root = np.random.SeedSequence(seed)
-    truth_seed, rigid_seed, living_seed = root.spawn(3)
+    truth_seed, rigid_seed, living_seed, rotation_seed = root.spawn(4)
     truth_rng = np.random.default_rng(truth_seed)
     joint_range = (joint_angle_at_zero + math.degrees(lo), joint_angle_at_zero + math.degrees(hi))
     passive_truth = PassiveTruth.draw(
@@ -563,6 +568,11 @@ def simulate_living_study(
             for k in range(trials_per_speed)
         ]
         plans.append((rigid_seed, rigid, next(iter(design)), plan))
+        others = [p for p, (_, tilt) in design.items() if tilt == 0.0][1:]
+        if rigid_rotation_sweeps and others:
+            for p, pseed in zip(others, rotation_seed.spawn(len(others)), strict=True):
+                sweep = [("quasi-static", quasi_static_speed, motion, f"A_{p}_quasistatic.csv")]
+                plans.append((pseed, rigid, p, sweep))
     for p, pseed in zip(design, living_seed.spawn(len(design)), strict=True):
         plan = [
             ("quasi-static", quasi_static_speed, _moved(motion, d), f"B_{p}_quasistatic_{d}.csv")
