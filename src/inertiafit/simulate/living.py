@@ -571,7 +571,9 @@ def simulate_living_study(
         others = [p for p, (_, tilt) in design.items() if tilt == 0.0][1:]
         if rigid_rotation_sweeps and others:
             for p, pseed in zip(others, rotation_seed.spawn(len(others)), strict=True):
-                sweep = [("quasi-static", quasi_static_speed, motion, f"A_{p}_quasistatic.csv")]
+                sweep: list[_Planned] = [
+                    ("quasi-static", quasi_static_speed, motion, f"A_{p}_quasistatic.csv")
+                ]
                 plans.append((pseed, rigid, p, sweep))
     for p, pseed in zip(design, living_seed.spawn(len(design)), strict=True):
         plan = [
