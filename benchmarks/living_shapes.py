@@ -22,7 +22,8 @@ seed:
 
 The last two were kept back while the smooth model was built and tuned, to check it on
 shapes it was not looked at with. Designs: ``one`` posture, ``two`` postures (gravity rotated
-45 deg, known to 2 deg), ``horizontal`` (the second posture's axis vertical).
+45 deg, known to 2 deg), ``two-measured`` (the same, the attachment also swept in the second
+posture: its rotation measured), ``horizontal`` (the second posture's axis vertical).
 
 Printed per design and model: the share of studies whose 95 % HDI of the forearm's ``I`` and
 ``M_g`` holds the truth, with its binomial 95 % interval (issue 32's target 90-99 %), the
@@ -34,7 +35,8 @@ in a sweep) counts as a miss everywhere, and the refusals are counted; widths an
 are over the studies not refused.
 
 Run:  .venv/bin/python benchmarks/living_shapes.py [--quick] [--studies N] [--seed S]
-      [--json FILE]   (full: 40 studies per design, about 15 minutes on 2 cores; --quick: 5)
+      [--designs one,two] [--json FILE]   (full: 40 studies per design, about 30 minutes on
+      2 cores; --quick: 5)
 """
 
 from __future__ import annotations
@@ -54,7 +56,7 @@ from common import binomial_interval, hdi, living_forearm_bodies, standalone, ta
 
 HDI = 0.95
 Z95 = 1.959963984540054
-DESIGNS = ("one", "two", "horizontal")
+DESIGNS = ("one", "two", "two-measured", "horizontal")
 SHAPES = ("stops", "cubic", "tanh", "kink", "bump")
 MODELS = ("smooth", "fixed")
 #: Where the passive curve is checked: fractions of the swept range (its middle is the
@@ -126,7 +128,8 @@ def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
         manifest = simulate_living_study(
             tmp,
             seed=int(rng.integers(2**31)),
-            postures=design,
+            postures="two" if design == "two-measured" else design,
+            rigid_rotation_sweeps=design == "two-measured",
             bodies=truth,
             priors=priors,
             passive=passive,
@@ -204,14 +207,24 @@ def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
     return out
 
 
-def run(*, quick: bool = False, seed: int = 20261202, studies: int | None = None) -> dict:
+def run(
+    *,
+    quick: bool = False,
+    seed: int = 20261202,
+    studies: int | None = None,
+    designs: str | None = None,
+) -> dict:
     n = studies or (5 if quick else 40)
-    jobs = [(d, seed + i) for d in DESIGNS for i in range(n)]
+    chosen = tuple(designs.split(",")) if designs else DESIGNS
+    unknown = sorted(set(chosen) - set(DESIGNS))
+    if unknown:
+        raise SystemExit(f"--designs: unknown {unknown}; choose among {', '.join(DESIGNS)}")
+    jobs = [(d, seed + i) for d in chosen for i in range(n)]
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
         results = list(pool.map(one_study, *zip(*jobs, strict=True)))
     rows = []
-    for design in DESIGNS:
+    for design in chosen:
         sub = [r for r in results if r["design"] == design]
         for model in MODELS:
             row = {"design": design, "model": model}
@@ -282,7 +295,10 @@ def main() -> None:
         __doc__ or "",
         seed=20261202,
         quick_help="5 studies per design instead of 40",
-        options={"--studies": {"type": int, "default": None, "help": "studies per design"}},
+        options={
+            "--studies": {"type": int, "default": None, "help": "studies per design"},
+            "--designs": {"default": None, "help": f"comma-separated, among {DESIGNS}"},
+        },
     )
 
 

@@ -107,12 +107,38 @@ def test_postures_narrow_the_living_gravity_moment(tmp_path):
         ),
         ('[[designs]]\nname = "p"\npostures = ["sideways"]\n', "unknown posture 'sideways'"),
         ('[[designs]]\nname = "r"\nrest_trials = -1\n', "rest_trials: expected a whole number"),
+        ('[[designs]]\nname = "s"\nrotation_sweeps = 1\n', "rotation_sweeps: expected true or"),
+        (
+            (
+                '[[designs]]\nname = "t"\nconditions = [["attachment", "forearm"]]\n'
+                "rotation_sweeps = true\n"
+            ),
+            "rotation_sweeps: no rigid condition",
+        ),
     ],
 )
 def test_a_living_body_is_never_weighed_or_remounted(tmp_path, text, message):
     with pytest.raises(InputError, match=message) as err:
         plan(**load_plan_file(_file(tmp_path, text)), seed=0)
     assert "\n" not in str(err.value)
+
+
+def test_a_rigid_sweep_in_the_second_posture_is_predicted_to_pin_the_gravity_moment(tmp_path):
+    # With a smooth passive curve two postures measure M_g only through their rotation: the
+    # attachment swept in the second posture as well measures it, one trial more, and the
+    # plan predicts the forearm's M_g interval several times narrower
+    text = (
+        DESIGNS
+        + '[[designs]]\nname = "measured"\npostures = ["upright", "tilted"]\n'
+        + "rotation_sweeps = true\n"
+    )
+    table = plan(**load_plan_file(_file(tmp_path, text)), seed=0).table
+    forearm = table[(table.body == "forearm") & (table.parameter == "gravity_moment")]
+    width = dict(zip(forearm.design, forearm.hdi_width, strict=True))
+    assert width["measured"] < 0.35 * width["two postures"]
+    assert width["measured"] < 0.3  # the aim for two postures: 25 % or less
+    n = dict(zip(table.design, table.n_trials, strict=False))
+    assert n["measured"] == n["two postures"] + 1
 
 
 def test_variants_never_weigh_or_remount_the_living_body(tmp_path):

@@ -90,6 +90,10 @@ class Design:
         default one posture.
     rest_trials : int
         Quiet holds per posture of each living condition.
+    rotation_sweeps : bool
+        Sweep the rigid conditions also in each posture after the first (axis horizontal):
+        each such sweep measures that posture's gravity rotation, which two postures need to
+        tell ``M_g`` from a passive curve of any smooth shape.
     """
 
     name: str
@@ -105,6 +109,7 @@ class Design:
     passive: Any = None
     postures: tuple[Any, ...] = ()
     rest_trials: int = 0
+    rotation_sweeps: bool = False
 
     def __post_init__(self):
         where = f"design '{self.name}'"
@@ -140,6 +145,8 @@ class Design:
                     f"{where}: passive, postures and rest_trials are for a living body; mark "
                     "it with living = true"
                 )
+            if self.rotation_sweeps:
+                raise InputError(f"{where}: rotation_sweeps: for a living body's postures")
             return
         if not any(body in m.bodies for m in self.mountings):
             raise InputError(f"{where}: living body '{body}' is in no condition")
@@ -158,6 +165,17 @@ class Design:
             raise InputError(
                 f"{where}: rest_trials: expected a whole number >= 0, got {self.rest_trials!r}"
             )
+        if self.rotation_sweeps and not any(not self.holds_living(m) for m in self.mountings):
+            raise InputError(
+                f"{where}: rotation_sweeps: no rigid condition to sweep in the other postures"
+            )
+
+    @property
+    def rotation_postures(self) -> tuple[Any, ...]:
+        """The postures after the first whose rotation the rigid sweeps measure."""
+        if not self.rotation_sweeps:
+            return ()
+        return tuple(p for p in self.postures[1:] if p.tilt == 0.0)
 
     def holds_living(self, mounting: Mounting) -> bool:
         """Whether ``mounting`` holds the living body."""
@@ -175,7 +193,7 @@ class Design:
             if self.holds_living(m):
                 total += (per + self.rest_trials) * max(len(self.postures), 1)
             else:
-                total += per
+                total += per + len(self.rotation_postures)
         return total
 
     @property

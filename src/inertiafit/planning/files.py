@@ -35,7 +35,7 @@ _FILE_KEYS = {"name", "gravity", "hdi_prob", "bodies", "noise", "targets", "defa
               "max_trials_per_speed", "seed", "passive", "postures"}  # fmt: skip
 _DESIGN_KEYS = {"name", "conditions", "trials_per_speed", "speeds", "quasi_static_trials",
                 "priors", "weigh", "balance", "torque_gain_sd", "postures",
-                "rest_trials"}  # fmt: skip
+                "rest_trials", "rotation_sweeps"}  # fmt: skip
 _BODY_KEYS = {*PARAMETERS, "prior", "living"}
 _NOISE_KEYS = {"inertia_sd", "inertia_relative_sd", "gravity_moment_se"}
 
@@ -100,7 +100,7 @@ class _Living:
 
     def design_kwargs(self, table: Mapping[str, Any], where: str) -> dict[str, Any]:
         if not self.body:
-            for key in ("postures", "rest_trials"):
+            for key in ("postures", "rest_trials", "rotation_sweeps"):
                 if key in table:
                     raise InputError(f"{where}.{key}: for a living body (living = true)")
             return {}
@@ -123,6 +123,11 @@ class _Living:
             if isinstance(v, bool) or not isinstance(v, int):
                 raise InputError(f"{where}.rest_trials: expected a whole number, got {v!r}")
             out["rest_trials"] = v
+        if "rotation_sweeps" in table:
+            v = table["rotation_sweeps"]
+            if not isinstance(v, bool):
+                raise InputError(f"{where}.rotation_sweeps: expected true or false, got {v!r}")
+            out["rotation_sweeps"] = v
         return out
 
 

@@ -14,6 +14,7 @@ intervals.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -75,7 +76,9 @@ def reported_values(
     }
 
 
-def _living_gravity_se(design: Design, moment: float, rigid_se: float) -> float | None:
+def _living_gravity_se(
+    design: Design, moment: float, rigid_se: float, rotation_sd: float | None = None
+) -> float | None:
     """A living condition's ``M_g`` SE, predicted without data (``None``: not measured).
 
     The joint fit of gravity and the passive curve that the design's sweeps, rest trials and
@@ -83,8 +86,15 @@ def _living_gravity_se(design: Design, moment: float, rigid_se: float) -> float 
     phase taken as 0), at the noise that gives one rigid sweep the SE ``rigid_se``. With one
     posture and a smooth passive curve the data do not measure ``M_g``
     (:attr:`~inertiafit.processing.living.LivingStatics.gravity_identified`).
+    ``rotation_sd`` (rad): the rotations of :attr:`Design.rotation_postures` measured to it.
     """
     postures = design.postures or (PostureGeometry("reference"),)
+    if rotation_sd is not None:
+        measured = {p.name for p in design.rotation_postures}
+        postures = tuple(
+            dataclasses.replace(p, measured_sd=rotation_sd) if p.name in measured else p
+            for p in postures
+        )
     statics = design_statics(
         moment,
         postures,
@@ -96,6 +106,27 @@ def _living_gravity_se(design: Design, moment: float, rigid_se: float) -> float 
     if not statics.gravity_identified:
         return None
     return statics.gravity_fit("living").gravity_moment_se
+
+
+def _rotation_sd(
+    design: Design, truth: Mapping[str, Mapping[str, float]], noise: NoiseLevels, gravity: float
+) -> float | None:
+    """The SD (rad) of a posture's rotation measured by the design's rigid sweeps.
+
+    The difference of a rigid condition's gravity phases in two postures, one sweep each:
+    ``sqrt(2)`` times one sweep's phase SE, ``gravity_se / M_g`` (the most precise rigid
+    condition's). ``None`` without :attr:`Design.rotation_sweeps`.
+    """
+    if not design.rotation_postures:
+        return None
+    ses = []
+    for mount in design.mountings:
+        if design.holds_living(mount):
+            continue
+        moment = float(mount.totals(truth, gravity)[1])
+        if moment > 0:
+            ses.append(noise.gravity_se(mount) / moment)
+    return math.sqrt(2.0) * min(ses) if ses else None
 
 
 def design_model(
@@ -118,6 +149,7 @@ def design_model(
     nominal = nominal_values(bodies)
     truth = reported_values(nominal, gravity)
     conditions = []
+    rotation_sd = _rotation_sd(design, truth, noise, gravity)
     for mount in design.mountings:
         total_b, moment = (float(v) for v in mount.totals(truth, gravity))
         n = design.trials_per_speed * len(design.speeds)
@@ -125,7 +157,7 @@ def design_model(
         obs_i = Observation(total_b, sd / math.sqrt(n), n - 1.0, n)
         se: float | None
         if design.holds_living(mount):
-            se = _living_gravity_se(design, moment, noise.gravity_se(mount))
+            se = _living_gravity_se(design, moment, noise.gravity_se(mount), rotation_sd)
         else:
             se = noise.gravity_se(mount) / math.sqrt(design.quasi_static_trials)
         obs_g = (
