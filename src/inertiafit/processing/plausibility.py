@@ -40,6 +40,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.ndimage
 import xarray as xr
 
 from inertiafit.errors import InputError
@@ -51,6 +52,7 @@ from inertiafit.processing.window import MIN_SPEED_CHANGE, plateau_speed
 __all__ = [
     "GRAVITY_SCATTER_MAX",
     "GRAVITY_SHARE_MAX",
+    "REST_TRAVEL",
     "SCALE_RANGE",
     "SIGN_CORRELATION",
     "SLOPE_RANGE",
@@ -58,6 +60,7 @@ __all__ = [
     "WINDOW_SPEED_CHANGE_MIN",
     "SignVerdict",
     "check_quasi_static_sweep",
+    "check_rest_hold",
     "cruise_slope",
     "fast_trial_flags",
     "gravity_scale_flag",
@@ -282,6 +285,31 @@ def check_quasi_static_sweep(fit: GravityFit) -> GravityFit:
         "does not "
         f"determine (the interval reaches 0); record the quasi-static trial over "
         f"{MIN_RANGE:g} deg or more (the fast trials' range)"
+    )
+
+
+#: A rest trial whose angle (its running median, 51 samples) travels more than this (deg) is
+#: not a quiet hold.
+REST_TRAVEL = 2.0
+
+
+def check_rest_hold(trial: xr.Dataset) -> xr.Dataset:
+    """Refuse a rest trial that moves: a quiet hold is one angle (issue 36).
+
+    The hold's moment is read as the static curve at its angle; a sweep or a fast move
+    labelled ``kind = "rest"`` was taken as such a hold. Its angle's running median (a noisy
+    channel's samples left aside) may travel at most :data:`REST_TRAVEL`. Returns ``trial``.
+    """
+    angle = np.asarray(trial["angle"].values, dtype=np.float64)
+    size = min(51, max(1, (angle.size // 10) | 1))
+    steady = scipy.ndimage.median_filter(angle, size=size, mode="mirror")
+    travel = math.degrees(float(np.ptp(steady))) if steady.size else 0.0
+    if travel <= REST_TRAVEL:
+        return trial
+    raise InputError(
+        f"{source_of(trial)}: angle: a rest trial must hold still, but its angle travels {travel:.3g} deg "
+        f"({math.degrees(float(steady.min())):.3g} to {math.degrees(float(steady.max())):.3g}); "
+        'a slow sweep is kind = "quasi-static", a fast move kind = "fast"'
     )
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -60,6 +61,7 @@ from inertiafit.processing.living import (
 from inertiafit.processing.plausibility import (
     SignVerdict,
     check_quasi_static_sweep,
+    check_rest_hold,
     cruise_slope,
     fast_trial_flags,
     gravity_scale_flag,
@@ -500,6 +502,8 @@ def _process(
     records: list[StaticRecord] = []
     for spec, ds in data:
         if spec.kind == "rest":
+            if run.attempt(spec, functools.partial(check_rest_hold, ds)) is None:
+                continue
             held: xr.Dataset = ds
             rest_flag: tuple[str, ...] = ()
             if emg is not None and "emg" in ds:  # checked like a sweep: a hold can contract
@@ -1135,6 +1139,17 @@ def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
             f"(identical content, SHA-256 {digest[:12]}...); list each recording once"
         )
     ds = spec.read()
+    # the same samples saved again (other line ends, another delimiter or format): one
+    # recording all the same (issue 36: a CRLF copy counted twice)
+    samples = hashlib.sha256()
+    for name in ("angle", "torque"):
+        samples.update(np.ascontiguousarray(ds[name].values, dtype=np.float64).tobytes())
+    same = run.contents.setdefault(f"samples:{samples.hexdigest()}", spec)
+    if same is not spec:
+        raise InputError(
+            f"{spec.file}: the same recording as {_relative(same.file, run.study.base_dir)} "
+            "(the same angle and torque samples, saved differently); list each recording once"
+        )
     run.provenance[spec.index]["sampling_rate"] = float(ds.attrs["sampling_rate"])
     flags = tuple(str(f) for f in (ds.attrs.get("flags", ()) or ()))
     if isinstance(ds.attrs.get("flags"), str):  # one flag stored as a string

@@ -1,0 +1,90 @@
+"""Issue 36 ("Nothing silent, round two"): the cases it lists that this release answers.
+
+As ``test_issue22_catalogue.py``: each case one test, through the command line where the issue
+used it (one line on stderr, exit 2, nothing changed), with a direct assertion on the outcome.
+Cases answered in depth elsewhere are named here with the test that holds them:
+
+- a posture's ``gravity_rotation`` declared 0 or 30 deg where it is 46.6, or its sign flipped:
+  measured by a rigid sweep in that posture and said, naming the key
+  (``test_living_shapes.py::test_a_rigid_sweep_measures_the_rotation_and_the_declared_one_is_checked``);
+- a stiffness prior written per degree: refused at reading with the value per radian
+  (``test_manifest_living.py``, case "stiffness per degree").
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_issue22_catalogue import copy_of, run_refused
+
+from inertiafit.processing.plausibility import REST_TRAVEL
+from inertiafit.processing.study import process_study
+from inertiafit.simulate import simulate_living_study
+
+
+@pytest.fixture(scope="module")
+def living(tmp_path_factory):
+    """A one-posture living study, two fast trials per speed (processing only)."""
+    root = tmp_path_factory.mktemp("issue36") / "study"
+    simulate_living_study(root, seed=36, postures="one", trials_per_speed=2)
+    return root
+
+
+def test_a_recording_saved_again_with_crlf_line_ends_is_refused(living, tmp_path):
+    # the same samples in other bytes (CRLF, as a spreadsheet re-saves a file): one recording
+    manifest = copy_of(living, tmp_path)
+    data = manifest.parent / "data"
+    text = (data / "A_180_01.csv").read_text()
+    (data / "A_180_09.csv").write_bytes(text.replace("\n", "\r\n").encode())
+    assert (data / "A_180_09.csv").read_bytes() != (data / "A_180_01.csv").read_bytes()
+    with manifest.open("a") as fh:
+        fh.write('\n[[trials]]\nfile = "data/A_180_09.csv"\nbodies = ["attachment"]\n')
+        fh.write('kind = "fast"\nspeed = 180.0\nposture = "upright"\n')
+    run_refused(
+        manifest,
+        tmp_path,
+        r"A_180_09\.csv: the same recording as data/A_180_01\.csv \(the same angle and torque "
+        r"samples, saved differently\)",
+    )
+
+
+@pytest.mark.parametrize("moving", ["B_upright_quasistatic_up.csv", "B_upright_180_01.csv"])
+def test_a_moving_rest_trial_is_refused(living, tmp_path, moving):
+    # a sweep, or a 180 deg/s move, filed as kind = "rest" was read as a quiet hold
+    manifest = copy_of(living, tmp_path)
+    data = manifest.parent / "data"
+    frame = pd.read_csv(data / moving)
+    frame["torque"] += 0.001  # not a byte copy of a trial listed already
+    frame.to_csv(data / "B_upright_rest_1.csv", index=False)
+    run_refused(
+        manifest,
+        tmp_path,
+        r"B_upright_rest_1\.csv: angle: a rest trial must hold still, but its angle travels 9\d",
+        r'a slow sweep is kind = "quasi-static"',
+    )
+
+
+def test_a_still_rest_trial_with_a_noisy_angle_is_kept(living, tmp_path):
+    # the check reads the angle's running median: a hold whose channel jitters by half a
+    # degree, with a glitch at its first sample, is still a hold
+    manifest = copy_of(living, tmp_path)
+    path = manifest.parent / "data" / "B_upright_rest_2.csv"
+    frame = pd.read_csv(path)
+    jitter = np.random.default_rng(0).normal(0.0, 0.5, len(frame))
+    frame["angle"] = frame["angle"] + jitter
+    frame.loc[0, "angle"] += 6.0
+    frame.to_csv(path, index=False)
+    processed = process_study(manifest)
+    rest = processed.trials[processed.trials["kind"] == "rest"]
+    assert len(rest) == 3
+    assert REST_TRAVEL < 6.0
+
+
+def test_distinct_recordings_with_the_same_rate_are_not_taken_for_copies(living):
+    # the content check compares the samples themselves: every trial of a real (noisy) study
+    # passes it
+    processed = process_study(Path(living) / "study.toml")
+    assert len(processed.trials) == len(processed.provenance)
