@@ -20,8 +20,12 @@ import pandas as pd
 import pytest
 from test_issue22_catalogue import copy_of, run_refused
 
+from inertiafit.errors import InputError
+from inertiafit.io import load_study, read_trial
+from inertiafit.posterior import open_posterior
 from inertiafit.processing.plausibility import REST_TRAVEL
 from inertiafit.processing.study import process_study
+from inertiafit.report.propagate import propagate
 from inertiafit.simulate import simulate_living_study
 
 
@@ -88,3 +92,103 @@ def test_distinct_recordings_with_the_same_rate_are_not_taken_for_copies(living)
     # passes it
     processed = process_study(Path(living) / "study.toml")
     assert len(processed.trials) == len(processed.provenance)
+
+
+# -- propagate checks meaning, not only shapes ---------------------------------------------------
+
+RATE = 120.0
+
+
+def _swing(seconds: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """A forearm swing at 120 Hz: 1 rad of travel, time in s and angle in rad."""
+    time = np.arange(0.0, seconds, 1.0 / RATE)
+    return time, 0.5 * np.sin(2 * np.pi * 0.5 * time)
+
+
+DRAWS = {"mass": [1.5, 1.6], "com_distance": [0.15, 0.16], "radius_of_gyration": [0.08, 0.09]}
+
+
+@pytest.mark.parametrize(
+    ("motion", "draws", "pattern"),
+    [
+        (lambda t, a: (t, np.degrees(a)), DRAWS, r"^motion: angle: travels 57\.\d+ rad .* deg\)"),
+        (lambda t, a: (1000 * t, a), DRAWS, r"^motion: time: a step of 8\.333 s .*is it in ms"),
+        (
+            lambda t, a: (np.round(t, 3), a),
+            DRAWS,
+            r"^motion: time: steps from 0\.008 to 0\.009 s .*rounded time stamps",
+        ),
+        (
+            lambda t, a: (t, a, np.full_like(t, 1e6)),
+            DRAWS,
+            r"^motion: acceleration reaches 1e\+06 rad/s\^2, beyond any limb's",
+        ),
+        (lambda t, a: ("a", "b"), DRAWS, r"^motion: time: expected numbers, got 'a'"),
+        (lambda t, a: (t, a), DRAWS | {"mass": [1.5, -1.0]}, r"^posterior: mass: every draw"),
+        (
+            lambda t, a: (t, a),
+            DRAWS | {"mass": [1.5, float("nan")]},
+            r"^posterior: mass: every draw must be a positive number, got nan",
+        ),
+        (lambda t, a: (t, a), DRAWS | {"mass": ["x", 1]}, r"^posterior: mass: expected numbers"),
+    ],
+    ids=[
+        "degrees",
+        "milliseconds",
+        "rounded stamps",
+        "acceleration",
+        "not numbers",
+        "negative mass",
+        "nan mass",
+        "text mass",
+    ],
+)
+def test_propagate_refuses_what_its_units_cannot_mean(motion, draws, pattern):
+    with pytest.raises(InputError, match=pattern) as err:
+        propagate(draws, motion(*_swing()))
+    assert "\n" not in str(err.value)
+
+
+def test_propagate_of_a_long_motion_is_one_line_not_a_memory_error():
+    time = np.arange(1_000_000) / 1000.0
+    angle = 0.5 * np.sin(2 * np.pi * 0.5 * time)
+    big = {p: np.full(4000, v[0]) for p, v in DRAWS.items()}
+    with pytest.raises(InputError, match=r"1000000 samples x 4000 draws .* GiB"):
+        propagate(big, (time, angle, np.zeros_like(time)))
+    # fewer draws go through, every value right: I alpha + M_g sin(theta) with alpha 0
+    fine = propagate(big, (time, angle, np.zeros_like(time)), draws=100)
+    assert fine.moments.shape == (100, time.size)
+
+
+def test_propagate_of_a_right_motion_gives_the_physics():
+    from inertiafit.physics import gravity_moment
+
+    time, angle = _swing()
+    out = propagate(DRAWS, (time, angle, np.zeros_like(time)))
+    expected = gravity_moment(1.5, 0.15, 9.81) * np.sin(angle)
+    np.testing.assert_allclose(out.moments[0], expected, rtol=1e-12)
+
+
+# -- no traceback: a public function's bad argument is one InputError line -----------------------
+
+
+@pytest.mark.parametrize(
+    ("call", "pattern"),
+    [
+        (lambda post, tmp: read_trial(None), r"^path: expected a file path .*got None$"),
+        (lambda post, tmp: load_study(None), r"^path: expected a file path .*got None$"),
+        (lambda post, tmp: post.save(tmp), r"^path: .* is a folder; give a file name"),
+        (lambda post, tmp: post.corner("nobody"), r"^body: 'nobody' is not in this posterior"),
+        (lambda post, tmp: post.draws("disk-3kg", "massx"), r"^parameter: 'massx' is not in"),
+        (
+            lambda post, tmp: propagate(post, ("a", "b")),
+            r"^motion: time: expected numbers, got 'a'$",
+        ),
+    ],
+    ids=["read_trial", "load_study", "save", "corner", "draws", "propagate"],
+)
+def test_a_bad_argument_is_one_line(disk_fit, tmp_path, call, pattern):
+    post = open_posterior(disk_fit / "posterior.nc")
+    with pytest.raises(InputError, match=pattern) as err:
+        call(post, tmp_path)
+    assert "\n" not in str(err.value)

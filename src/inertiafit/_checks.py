@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 import operator
+import os
+from pathlib import Path
 
 from inertiafit.errors import InputError
 
@@ -24,6 +26,7 @@ __all__ = [
     "check_interval",
     "check_non_negative",
     "check_number",
+    "check_path",
     "check_positive",
     "check_probability",
     "check_seed",
@@ -53,6 +56,13 @@ def _as_float(value: object) -> float | None:
         return float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         return None
+
+
+def check_path(value: object, where: str = "path") -> Path:
+    """A file path given as a ``str`` or ``os.PathLike`` (not empty): a :class:`~pathlib.Path`."""
+    if isinstance(value, (str, os.PathLike)) and str(value).strip():
+        return Path(value)
+    raise InputError(f"{where}: expected a file path (str or pathlib.Path), got {value!r}")
 
 
 def check_number(value: object, where: str) -> float:

@@ -106,6 +106,7 @@ from inertiafit._checks import (
     check_finite,
     check_increasing_pair,
     check_interval,
+    check_path,
     check_positive,
 )
 from inertiafit.errors import InputError
@@ -789,7 +790,7 @@ def load_study(path: str | Path) -> Study:
         with them, a rest trial without the living body or with a ``speed``, and a condition
         of the living body with rest trials but no quasi-static one.
     """
-    path = Path(path).expanduser().resolve()
+    path = check_path(path).expanduser().resolve()
     where = str(path)
     if not path.is_file():
         raise _fail(where, "study manifest not found")

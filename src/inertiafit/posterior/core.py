@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from inertiafit._checks import check_probability
+from inertiafit._checks import check_path, check_probability
 from inertiafit.errors import InputError
 from inertiafit.io.outputs import write_csv
 from inertiafit.physics import PARAMETERS, REPORTED, SYMBOLS
@@ -98,7 +98,20 @@ class Posterior:
         return bool(int(self.tree.attrs.get("converged", 0)))
 
     def draws(self, body: str, parameter: str, group: str = "posterior") -> np.ndarray:
-        """Draws of one parameter of one body, shape ``(chain, draw)``."""
+        """Draws of one parameter of one body, shape ``(chain, draw)``.
+
+        Raises
+        ------
+        InputError
+            For a body, parameter or group the posterior does not hold.
+        """
+        if body not in self.bodies:
+            raise InputError(f"body: {body!r} is not in this posterior ({', '.join(self.bodies)})")
+        if group not in self.tree.children:
+            raise InputError(f"group: no group {group!r} ({', '.join(self.tree.children)})")
+        if parameter not in self.tree[group].data_vars:
+            known = ", ".join(str(v) for v in self.tree[group].data_vars)
+            raise InputError(f"parameter: {parameter!r} is not in the {group} ({known})")
         return np.asarray(self.tree[group][parameter].sel(body=body).values)
 
     def prior_values(self, body: str, key: str) -> dict[str, float]:
@@ -302,8 +315,15 @@ class Posterior:
     # -- files ----------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
         """Write the whole tree to netCDF (HDF5 via h5netcdf)."""
-        path = Path(path)
-        self.tree.to_netcdf(path, engine="h5netcdf")
+        path = check_path(path)
+        if path.is_dir():
+            raise InputError(
+                f"path: {path} is a folder; give a file name, such as {path / 'posterior.nc'}"
+            )
+        try:
+            self.tree.to_netcdf(path, engine="h5netcdf")
+        except OSError as err:
+            raise InputError(f"{path}: cannot write it ({err.strerror or err})") from None
         return path
 
     # -- plots ----------------------------------------------------------------------------
@@ -357,7 +377,7 @@ class Posterior:
 
         if body is None:
             if len(self.bodies) != 1:
-                raise ValueError(f"choose a body: one of {', '.join(self.bodies)}")
+                raise InputError(f"body: choose one of {', '.join(self.bodies)}")
             body = self.bodies[0]
         columns = [self.draws(body, p).ravel() for p in parameters]
         bounds = self.prior_box(body)

@@ -173,6 +173,64 @@ class Propagation:
         return row
 
 
+#: A motion whose time step exceeds this (s) is refused: 10 Hz, below any motion capture's
+#: rate; a time in ms read as s gives steps of a second.
+MAX_STEP = 0.1
+#: Time steps that differ from their median by more than this fraction are uneven: the
+#: spectral derivative assumes one step (time stamps rounded to 1 ms at 120 Hz are 20 % off).
+STEP_TOLERANCE = 0.01
+#: Largest angular travel (rad) of a motion: a turn; more is an angle in degrees.
+MAX_TRAVEL = 2 * np.pi
+#: Largest angular acceleration (rad/s^2) a limb reaches: a pitcher's shoulder about 1e4.
+MAX_ACCELERATION = 5e4
+#: Most moment values one propagation holds (draws x samples): 1.6 GB.
+MAX_VALUES = 2e8
+
+
+def _floats(value: Any, what: str) -> NDArray:
+    """``value`` as float64 numbers, or a one-line error naming ``what``."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"motion: {what}: expected numbers, got {value!r:.60}") from None
+
+
+def _check_motion(time: NDArray, angle: NDArray, acc: NDArray, *, derived: bool) -> None:
+    """Refuse a motion whose numbers cannot mean what propagate takes (issue 36).
+
+    Angles beyond a turn of travel (degrees read as radians), time steps beyond
+    :data:`MAX_STEP` (milliseconds read as seconds), uneven steps where the acceleration is
+    derived (the spectral derivative assumes one step), and accelerations beyond any limb's.
+    """
+    travel = float(np.ptp(angle))
+    if travel > MAX_TRAVEL:
+        raise InputError(
+            f"motion: angle: travels {travel:.4g} rad ({np.degrees(travel):.4g} deg), more than "
+            "a turn; give the angle in rad (are these degrees?)"
+        )
+    steps = np.diff(time)
+    median = float(np.median(steps))
+    if median > MAX_STEP:
+        raise InputError(
+            f"motion: time: a step of {median:.4g} s ({1 / median:.3g} Hz); give the time in s "
+            "(is it in ms?)"
+        )
+    spread = float(np.max(np.abs(steps - median))) / median
+    if derived and spread > STEP_TOLERANCE:
+        raise InputError(
+            f"motion: time: steps from {steps.min():.4g} to {steps.max():.4g} s (up to "
+            f"{100 * spread:.0f} % off their median, rounded time stamps?); the acceleration "
+            "is derived for one even step: resample the motion to an even step or give its "
+            "acceleration"
+        )
+    peak = float(np.max(np.abs(acc)))
+    if peak > MAX_ACCELERATION:
+        raise InputError(
+            f"motion: acceleration reaches {peak:.4g} rad/s^2, beyond any limb's "
+            f"({MAX_ACCELERATION:g}); check the units of time, angle and acceleration"
+        )
+
+
 def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDArray, NDArray]:
     """``(time, angle, acceleration)`` of a motion given as arrays, a Trial or a trial file."""
     if isinstance(motion, str | Path):
@@ -188,11 +246,11 @@ def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDA
         missing = [k for k in ("time", "angle") if k not in motion]
         if missing:
             raise InputError(f"motion: '{missing[0]}' is missing (time in s, angle in rad)")
-        time = np.asarray(motion["time"], dtype=float)
-        angle = np.asarray(motion["angle"], dtype=float)
+        time = _floats(motion["time"], "time")
+        angle = _floats(motion["angle"], "angle")
         acceleration = motion.get("acceleration")
     elif isinstance(motion, tuple) and len(motion) in (2, 3):
-        time, angle = (np.asarray(v, dtype=float) for v in motion[:2])
+        time, angle = _floats(motion[0], "time"), _floats(motion[1], "angle")
         acceleration = motion[2] if len(motion) == 3 else None
     else:
         raise InputError(
@@ -208,9 +266,10 @@ def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDA
     if acceleration is None:
         acc = derivative(derivative(angle, time), time)
     else:
-        acc = np.asarray(acceleration, dtype=float)
+        acc = _floats(acceleration, "acceleration")
         if acc.shape != time.shape or not np.all(np.isfinite(acc)):
             raise InputError("motion: 'acceleration' must be finite, one value per time")
+    _check_motion(time, angle, acc, derived=acceleration is None)
     return time, angle, acc
 
 
@@ -239,13 +298,30 @@ def _draws(
         missing = [p for p in PARAMETERS if p not in source]
         if missing:
             raise InputError(f"posterior: '{missing[0]}' is missing from the draws given")
+        given = []
+        for p in PARAMETERS:
+            try:
+                given.append(np.asarray(source[p], dtype=float))
+            except (TypeError, ValueError):
+                raise InputError(
+                    f"posterior: {p}: expected numbers, got {source[p]!r:.60}"
+                ) from None
         try:
-            arrays = np.broadcast_arrays(*(np.asarray(source[p], dtype=float) for p in PARAMETERS))
+            arrays = np.broadcast_arrays(*given)
         except ValueError:
             raise InputError(
                 "posterior: the draws of mass, com_distance, radius_of_gyration differ in length"
             ) from None
         values = {p: a.reshape(-1).copy() for p, a in zip(PARAMETERS, arrays, strict=True)}
+        for p in ("mass", "radius_of_gyration"):
+            bad = ~(np.isfinite(values[p]) & (values[p] > 0))
+            if bad.any():
+                raise InputError(
+                    f"posterior: {p}: every draw must be a positive number, got "
+                    f"{float(values[p][bad][0])!r} ({int(bad.sum())} of {bad.size})"
+                )
+        if not np.all(np.isfinite(values["com_distance"])):
+            raise InputError("posterior: com_distance: every draw must be a finite number")
         gravity, label = None, "draws given"
     else:
         raise InputError(
@@ -316,6 +392,12 @@ def propagate(
     g = gravity if gravity is not None else (own_gravity or GRAVITY)
     g = check_finite(g, "gravity", "m/s^2")
     m, x, rho = (values[p] for p in PARAMETERS)
+    if m.size * time.size > MAX_VALUES:
+        raise InputError(
+            f"motion: {time.size} samples x {m.size} draws is {m.size * time.size:.3g} moments "
+            f"({8 * m.size * time.size / 2**30:.3g} GiB), more than one propagation holds "
+            f"({MAX_VALUES:.0e}); pass draws= fewer or resample the motion"
+        )
     i_joint = inertia(m, rho, x)
     m_g = gravity_moment(m, x, g)
     moments = joint_moment(i_joint[:, None], m_g[:, None], angle[None, :], acceleration[None, :],

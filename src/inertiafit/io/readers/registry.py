@@ -19,6 +19,7 @@ from typing import Any
 
 import xarray as xr
 
+from inertiafit._checks import check_path
 from inertiafit.errors import InputError
 from inertiafit.io.readers.validation import check_columns, check_emg, check_units
 from inertiafit.io.units import emg_unit as canonical_emg_unit
@@ -285,7 +286,7 @@ def read_trial(
         (the message names the formats that read binary files), and every problem with the
         file's contents; the one-line message names the file and the field.
     """
-    path = Path(path)
+    path = check_path(path)
     if format is None:
         format = recognised_format(path) or "csv"
     reader = _get_reader(format, where=str(path))
