@@ -13,13 +13,15 @@ Cases answered in depth elsewhere are named here with the test that holds them:
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-from test_issue22_catalogue import copy_of, run_refused
+from test_issue22_catalogue import copy_of, refused, run_refused
 
+from inertiafit.cli import main
 from inertiafit.errors import InputError
 from inertiafit.io import load_study, read_trial
 from inertiafit.posterior import open_posterior
@@ -192,3 +194,26 @@ def test_a_bad_argument_is_one_line(disk_fit, tmp_path, call, pattern):
     with pytest.raises(InputError, match=pattern) as err:
         call(post, tmp_path)
     assert "\n" not in str(err.value)
+
+
+# -- nothing overwritten without the marker -------------------------------------------------------
+
+
+def test_report_in_an_unmarked_folder_overwrites_nothing(disk_fit, tmp_path):
+    # a posterior.nc copied into a paper folder with the user's own summary.md, methods.md
+    # and report.html: report refuses, naming them, and changes nothing; with only the data
+    # files there it draws everything
+    from inertiafit.io.outputs import MARKER
+
+    paper = tmp_path / "paper"
+    shutil.copytree(disk_fit, paper)
+    (paper / MARKER).unlink()
+    for name in ("summary.md", "methods.md", "report.html"):
+        (paper / name).write_text(f"my own {name}\n")
+    refused(["report", str(paper)], tmp_path, r"summary\.md", r"would be overwritten", MARKER)
+    assert (paper / "summary.md").read_text() == "my own summary.md\n"
+    clean = tmp_path / "clean"
+    clean.mkdir()
+    shutil.copyfile(disk_fit / "posterior.nc", clean / "posterior.nc")
+    assert main(["report", str(clean)]) == 0
+    assert (clean / "report.html").is_file()

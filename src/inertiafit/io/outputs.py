@@ -633,6 +633,17 @@ def replace_files(folder: str | Path) -> Iterator[Path]:
                     f"({str(exc).splitlines()[0][:200]}); nothing changed"
                 ) from None
             listed = _read_marker(whole)
+            if listed is None:  # nothing tells inertiafit's files from the user's: keep them
+                have = _listing(whole)
+                tops = {name.split("/")[0] for name in drawn}
+                clash = sorted({name.split("/")[0] for name in have} & tops)
+                if clash:
+                    shown = ", ".join(clash)
+                    raise InputError(
+                        f"{folder}: {shown} would be overwritten, and the folder has no "
+                        f"{MARKER} to say inertiafit wrote them (a copied posterior.nc?); move "
+                        "them out, or redraw in a folder holding only the data files"
+                    )
             if listed is not None:  # a listing to tell inertiafit's files from others'
                 have = _listing(whole)
                 for name in sorted(drawn):
