@@ -983,6 +983,8 @@ def _measured_rotations(
         return postures
     phases: dict[str, dict[str, GravityFit]] = {}
     for cond, by_posture in rotation_fits.items():
+        if cond not in gravity:  # its home sweeps were all skipped: no reference phase
+            continue
         phases[cond] = {homes[cond]: gravity[cond]}
         for name, fits in by_posture.items():
             phases[cond][name] = combine_gravity(fits, f"{study.path}: condition {cond}")
