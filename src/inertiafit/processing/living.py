@@ -19,14 +19,18 @@ at all.
 and rest trial of the study's living conditions at once. The coefficients are
 ``gamma = (A_c, B_c`` per living condition, ``C_cp`` per condition and posture, ``H``,
 the passive coefficients ``k``, ``a_lo``, ``a_hi`` and, for the knee and the ankle, the scale
-``s`` of the literature curve, and a rotation correction ``delta r_p`` per posture beside
-the first``)``. ``A``, ``B`` and ``C`` have flat priors; every other coefficient has the
-Gaussian prior of ``[passive]`` (the joint's prior file, :class:`PassiveBasis`), and each
-posture's rotation the Gaussian of its ``gravity_rotation_sd`` relative to the first
-posture's (``"free"``: flat). The passive and hysteresis coefficients are nuisance
-parameters and are **integrated out analytically**: with a Gaussian prior and a model linear
-in them, the posterior of ``(A, B)`` given the data is Gaussian with the covariance of the
-regression, exact up to two approximations named here — the rotation enters through its
+``s`` of the literature curve, the smooth part's coefficients and the hysteresis' change
+over the range (:class:`SmoothPassive`), each rest hold's own offset within the hysteresis
+band, and a rotation correction ``delta r_p`` per posture beside the first``)``. ``A``, ``B``
+and ``C`` have flat priors; every other coefficient has the Gaussian prior of ``[passive]``
+(the joint's prior file, :class:`PassiveBasis`) or of the smooth part, and each posture's
+rotation the Gaussian of its ``gravity_rotation_sd`` relative to the first posture's
+(``"free"``: flat; a rotation a rigid sweep measured: its SD). The passive and hysteresis
+coefficients are nuisance parameters and are **integrated out analytically**: with a
+Gaussian prior and a model linear in them, the posterior of ``(A, B)`` given the data is, at
+each point of the smooth part's hyperprior grid, Gaussian with the covariance of the
+regression; the grid's points are weighted by their evidence and the mixture's mean and
+covariance kept. That is exact up to two approximations named here — the rotation enters through its
 first-order term (Gauss-Newton, iterated to convergence: a Laplace approximation in
 ``delta r_p``, tight at the 2 deg of a protractor), and the noise of each trial is Gaussian
 with a variance and an autocorrelation time estimated from its residuals (the sandwich of
