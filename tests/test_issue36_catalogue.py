@@ -14,6 +14,7 @@ Cases answered in depth elsewhere are named here with the test that holds them:
 from __future__ import annotations
 
 import shutil
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -217,3 +218,42 @@ def test_report_in_an_unmarked_folder_overwrites_nothing(disk_fit, tmp_path):
     shutil.copyfile(disk_fit / "posterior.nc", clean / "posterior.nc")
     assert main(["report", str(clean)]) == 0
     assert (clean / "report.html").is_file()
+
+
+# -- the data check the manifest ------------------------------------------------------------------
+
+
+def test_joint_angle_at_zero_120_for_30_is_answered_or_said(tmp_path):
+    # The slip: the elbow's angle at the device's 0 written as 120 deg where it is 30.
+    # The smooth passive curve follows the joint wherever its angles sit: the forearm's I and
+    # M_g stay right. The fixed curve cannot, and its posterior pulls the attachment away from
+    # its own rigid condition: that is said, naming the key (24 SEs here); the right manifest
+    # (negative control) says nothing of the kind.
+    from inertiafit.pipeline.study import analyse_study
+
+    manifest = simulate_living_study(tmp_path, seed=8, postures="two", trials_per_speed=3)
+    truth = tomllib.loads((tmp_path / "truth.toml").read_text())["bodies"]["forearm"]
+    text = manifest.read_text()
+
+    def run(angle: float, curve: str):
+        edited = text.replace("joint_angle_at_zero = 30.0", f"joint_angle_at_zero = {angle}")
+        if curve == "fixed":
+            edited = edited.replace("[passive]\n", '[passive]\ncurve = "fixed"\n', 1)
+        manifest.write_text(edited)
+        result = analyse_study(manifest, seed=1)
+        said = [w for w in result.warnings if "do not describe the same bodies" in w]
+        return result.posterior, said
+
+    for curve in ("smooth", "fixed"):
+        _, said = run(30.0, curve)
+        assert not said
+    post, said = run(120.0, "smooth")
+    assert not said
+    for quantity in ("inertia", "gravity_moment"):
+        draws = post.draws("forearm", quantity).ravel()
+        lo, hi = np.quantile(draws, [0.005, 0.995])
+        assert lo < truth[quantity] < hi, quantity
+    _, said = run(120.0, "fixed")
+    assert len(said) >= 1
+    assert "condition attachment: its own trials give I" in said[0]
+    assert "joint_angle_at_zero" in said[0]

@@ -399,7 +399,8 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
         steps = min(max(s.chunk, chains.n_steps // 4), s.max_steps - chains.n_steps)
         chains.run(steps)
         chain = chains.chain()  # (steps, walkers, dim)
-        tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
+        with np.errstate(invalid="ignore", divide="ignore"):  # a still coordinate: nan, below
+            tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
         # tau is nan where a coordinate never moved in any walker (or a draw is not finite):
         # no estimate, so not converged yet; keep sampling, dropping the first half.
         tau_max = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.inf

@@ -14,11 +14,13 @@ run's table.
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from inertiafit._checks import check_probability, check_seed
@@ -26,13 +28,14 @@ from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError, StudyRefused
 from inertiafit.inference.evidence import check_trials_in_priors, study_model, study_priors
 from inertiafit.inference.fit import fit
+from inertiafit.inference.model import Model
 from inertiafit.inference.priors import Prior
 from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
 from inertiafit.io.outputs import check_out, guard_outputs, holds_only, output_folder, write_csv
 from inertiafit.io.shipped import passive_prior_path
 from inertiafit.plotting.style import DEFAULT_FORMATS
-from inertiafit.posterior import Posterior
+from inertiafit.posterior import Posterior, inputs_json
 from inertiafit.processing.living import living_tables
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
@@ -206,7 +209,51 @@ def _sample_study(
     if living:  # kept in posterior.nc, for `inertiafit report`
         inputs["living"] = {k: v.to_dict(orient="list") for k, v in living.items()}
     post = fit(model, seed=seed, inputs=inputs, provenance=provenance)
+    conflicts = evidence_conflicts(model, post, where=str(study.path))
+    if conflicts:  # said in the study's warnings, and kept in posterior.nc with them
+        processed.warnings.extend(conflicts)
+        post.tree.attrs["inputs"] = inputs_json(inputs)
     return study, priors, ideals, processed, living, post
+
+
+#: A condition's own evidence this many of its SEs from the joint posterior is said.
+CONFLICT_SD = 5.0
+
+
+def evidence_conflicts(model: Model, post: Posterior, *, where: str) -> list[str]:
+    """Conditions whose own trials contradict the joint posterior (issue 36, item 1).
+
+    Each plain condition's evidence (its fast trials' mean ``I``, its ``M_g``) against the
+    mean of its bodies' summed posterior draws: beyond :data:`CONFLICT_SD` of the evidence's
+    own SEs (a Student-t's SD; 3 scales below 3 degrees of freedom) the conditions do not
+    describe the same bodies — a slip in a key that links them (a living joint's
+    ``joint_angle_at_zero``, a posture's ``gravity_rotation``, a stiffness prior, a trial's
+    ``torque_sign``) — and a line says so, naming them. The posterior is then a compromise
+    that fits no condition: its narrow intervals are not to be trusted.
+    """
+    lines = []
+    for cond in model.conditions:
+        if not cond.mounting.plain:
+            continue
+        for quantity, obs in (("inertia", cond.inertia), ("gravity_moment", cond.gravity_moment)):
+            if obs is None:
+                continue
+            total = sum(post.draws(b, quantity).ravel() for b in cond.mounting.bodies)
+            spread = obs.scale**2 * (obs.df / (obs.df - 2) if obs.df > 2 else 3.0)
+            # the condition's own error alone: its data are in the posterior already
+            sd = math.sqrt(spread + obs.shared_sd**2)
+            off = (obs.center - float(np.mean(total))) / sd if sd > 0 else 0.0
+            if abs(off) <= CONFLICT_SD:
+                continue
+            symbol = "I" if quantity == "inertia" else "M_g"
+            lines.append(
+                f"{where}: condition {cond.label}: its own trials give {symbol} = "
+                f"{obs.center:.4g}, the joint posterior {float(np.mean(total)):.4g} "
+                f"({abs(off):.0f} of its SEs apart): the conditions do not describe the same bodies; "
+                "check the keys that link them (joint_angle_at_zero, gravity_rotation, the "
+                "passive priors' units, torque_sign) before trusting the intervals"
+            )
+    return lines
 
 
 def study_posterior(
