@@ -52,7 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
-from scipy import fft, optimize, signal, special
+from scipy import fft, ndimage, optimize, signal, special
 
 from inertiafit.errors import InputError
 from inertiafit.processing.filtering import sampling_rate, source_of
@@ -72,6 +72,7 @@ __all__ = [
     "REFUSE_RANGE",
     "REFUSE_SPEED",
     "REST_ANGLE",
+    "STEADY_SAMPLES",
     "TRIAL_NOISE_BATCHES",
     "GravityFit",
     "GravityRegression",
@@ -83,6 +84,7 @@ __all__ = [
     "integrated_autocorrelation_time",
     "moving_part",
     "pooled_noise",
+    "steady_angle",
     "sweep_noise",
     "white_level",
 ]
@@ -511,6 +513,22 @@ class GravityRegression:
     friction_se: float = 0.0
     friction_probability: float = 0.0
     trial_noise: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+#: Samples of an angle's running median (:func:`steady_angle`): about 50 ms at 1 kHz.
+STEADY_SAMPLES = 51
+
+
+def steady_angle(theta: NDArray) -> NDArray:
+    """The angle's running median (:data:`STEADY_SAMPLES`, fewer in a short trial).
+
+    What a trial's angle does, with a noisy channel's sample-to-sample jitter and an odd
+    glitch (a filter's first sample) left aside: where a sweep starts and ends, whether a
+    hold holds still.
+    """
+    theta = np.asarray(theta, dtype=np.float64)
+    size = min(STEADY_SAMPLES, max(1, (theta.size // 10) | 1))
+    return ndimage.median_filter(theta, size=size, mode="mirror")
 
 
 def moving_part(theta: NDArray) -> slice:

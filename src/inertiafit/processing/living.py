@@ -60,8 +60,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 import scipy.linalg
-import scipy.ndimage
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from inertiafit.errors import InputError
 from inertiafit.io.manifest import PassivePrior, Posture
@@ -72,6 +71,7 @@ from inertiafit.processing.gravity import (
     integrated_autocorrelation_time,
     moving_part,
     pooled_noise,
+    steady_angle,
     sweep_noise,
 )
 from inertiafit.stats import inverse_variance_mean, shared_error
@@ -269,10 +269,9 @@ class SmoothPassive:
     def over(cls, low: float, high: float) -> SmoothPassive:
         """The smooth part over joint angles ``low`` to ``high`` (rad), the swept range."""
         half = max(0.5 * (high - low), math.radians(1.0))
-        lengths = tuple(math.radians(v) for v in SMOOTH_LENGTHS_DEG)
-        need = math.ceil(1.75 * SMOOTH_BOUNDARY * half / min(lengths))
+        need = math.ceil(1.75 * SMOOTH_BOUNDARY * half / math.radians(min(SMOOTH_LENGTHS_DEG)))
         lo, hi = SMOOTH_FUNCTIONS
-        return cls(0.5 * (low + high), half, int(min(max(need, lo), hi)), lengths=lengths)
+        return cls(0.5 * (low + high), half, int(min(max(need, lo), hi)))
 
     @property
     def half_width(self) -> float:
@@ -301,6 +300,15 @@ class SmoothPassive:
     def hysteresis_names(self) -> tuple[str, ...]:
         """The coefficients ``hysteresis_shape:1`` ... of the hysteresis' change."""
         return tuple(f"hysteresis_shape:{m}" for m in range(1, self.hysteresis_functions + 1))
+
+    def hysteresis_design(self, theta_j: NDArray) -> NDArray:
+        """``[1, phi_1, ..., phi_K]`` at joint angles ``theta_j``: ``h(theta_j)``'s columns.
+
+        In the order of ``("hysteresis", *hysteresis_names)``; a matrix, one row per angle.
+        """
+        theta_j = np.atleast_1d(np.asarray(theta_j, dtype=np.float64))
+        shapes = self.columns(theta_j)[: self.hysteresis_functions]
+        return np.column_stack([np.ones_like(theta_j), *shapes])
 
     def hysteresis_variances(self, sd: float) -> NDArray:
         """Prior variances of the hysteresis' change: amplitude ``sd`` (N m)."""
@@ -354,10 +362,6 @@ class _Prepared:
     direction: int
 
 
-#: Samples of the running median a sweep's moving part is found on (about 50 ms at 1 kHz).
-_STEADY_SAMPLES = 51
-
-
 def _moving(theta: NDArray) -> slice:
     """A sweep's moving part, found on its angle's running median.
 
@@ -366,8 +370,7 @@ def _moving(theta: NDArray) -> slice:
     degree, and a filter's glitch at the first sample) kept the holds before and after a
     sweep in it, and counted them as moving.
     """
-    size = min(_STEADY_SAMPLES, max(1, (theta.size // 10) | 1))
-    return moving_part(scipy.ndimage.median_filter(theta, size=size, mode="mirror"))
+    return moving_part(steady_angle(theta))
 
 
 def _prepare(record: StaticRecord) -> _Prepared:
@@ -425,7 +428,6 @@ def _check(
     """
     record = prep.record
     n = resid.size
-    white = math.sqrt(float(np.mean(np.diff(resid) ** 2)) / 2.0) if n > 2 else math.nan
     if record.kind == "rest" or n <= CHECK_DEGREE + 2:
         tau = integrated_autocorrelation_time(resid) if n > 8 else 1.0
         sd = float(np.std(resid))
@@ -437,6 +439,7 @@ def _check(
     fitted = basis @ np.linalg.lstsq(basis, resid, rcond=None)[0]
     low = basis[:, :2] @ np.linalg.lstsq(basis[:, :2], resid, rcond=None)[0]
     structure = math.sqrt(float(np.mean((fitted - low) ** 2)))
+    white = math.sqrt(float(np.mean(np.diff(resid) ** 2)) / 2.0)
     return TrialCheck(
         record.source, record.kind, structure, white * math.sqrt((CHECK_DEGREE - 1) / n)
     )
@@ -570,9 +573,8 @@ class LivingStatics:
             moving = np.where(np.abs(v) > REST_SPEED, np.sign(v), 0.0)
             cols[self.index("hysteresis")] = moving
             if self.smooth is not None:
-                joint = self.basis.zero + np.asarray(angle, float)
-                shapes = self.smooth.columns(joint)
-                for name, col in zip(self.smooth.hysteresis_names, shapes, strict=False):
+                shapes = self.smooth.hysteresis_design(self.basis.zero + np.asarray(angle, float))
+                for name, col in zip(self.smooth.hysteresis_names, shapes.T[1:], strict=True):
                     cols[self.index(name)] = moving * col
         return cols
 
@@ -623,12 +625,12 @@ class LivingStatics:
         ``"the horizontal plane"`` or, with one posture, ``"the shape of the sweep"`` — with
         ``" and the passive prior"`` while the growth exceeds :data:`LEVERAGE_DATA`.
         """
-        with_gravity = [p for p in self.postures.values() if abs(math.cos(p.tilt)) > 1e-6]
         if not self.gravity_identified:
             return "passive prior"
         leverage = self.prior_leverage(condition)
         if leverage > LEVERAGE_PRIOR:
             return "passive prior"
+        with_gravity = self._with_gravity
         parts = []
         if len(with_gravity) > 1:
             parts.append("a second posture")
@@ -722,8 +724,12 @@ class LivingStatics:
         """
         if self.smooth is None:
             return True
-        with_gravity = [p for p in self.postures.values() if abs(math.cos(p.tilt)) > 1e-6]
-        return not (len(with_gravity) == len(self.postures) == 1)
+        return not (len(self._with_gravity) == len(self.postures) == 1)
+
+    @property
+    def _with_gravity(self) -> list[PostureGeometry]:
+        """The postures whose axis is not vertical: gravity acts in them."""
+        return [p for p in self.postures.values() if abs(math.cos(p.tilt)) > 1e-6]
 
     def damping(self, values, ses, sensitivities) -> tuple[float, float]:
         """The viscous damping ``b`` over fast trials: ``(mean, sd)``.
@@ -799,20 +805,8 @@ class LivingStatics:
         x = _matrix(self.columns(theta, condition, posture, 0), theta)
         mean = x @ self.coefficients
         var = np.einsum("ij,jk,ik->i", x, self.covariance, x)
-        band = np.array(
-            [
-                _hysteresis_at(self.names, self.coefficients, self.smooth, self.basis.zero + t)
-                for t in theta
-            ]
-        )
+        band = _hysteresis_at(self.names, self.coefficients, self.smooth, self.basis.zero + theta)
         return mean, np.sqrt(var + band**2 / 3.0)
-
-    def _hysteresis_shapes(self, theta: NDArray) -> list[NDArray]:
-        """The functions of the hysteresis' change at device angles ``theta`` (rad)."""
-        if self.smooth is None:
-            return []
-        shapes = self.smooth.columns(self.basis.zero + np.asarray(theta, dtype=np.float64))
-        return shapes[: self.smooth.hysteresis_functions]
 
     def passive_curve(self, step_deg: float = 2.0) -> pd.DataFrame:
         """The passive elastic moment over the swept range, relative to its middle.
@@ -852,11 +846,7 @@ class LivingStatics:
             }
         )
         # the direction-dependent moment h(theta_j): the constant and its change over the range
-        names = ["hysteresis", *(self.smooth.hysteresis_names if self.smooth else ())]
-        hidx = [self.index(n) for n in names]
-        hcols = np.column_stack(
-            [np.ones_like(theta), *self._hysteresis_shapes(theta)[: len(names) - 1]]
-        )
+        hidx, hcols = _hysteresis_columns(self.names, self.smooth, self.basis.zero + theta)
         h_mean = hcols @ self.coefficients[hidx]
         h_sd = np.sqrt(np.einsum("ij,jk,ik->i", hcols, self.covariance[np.ix_(hidx, hidx)], hcols))
         table["hysteresis"] = h_mean
@@ -892,7 +882,8 @@ def _columns(
         theta_j = basis.zero + theta
         functions = smooth.columns(theta_j)
         passive |= dict(zip(smooth.names, functions, strict=True))
-        for name, col in zip(smooth.hysteresis_names, functions, strict=False):
+        shapes = functions[: smooth.hysteresis_functions]
+        for name, col in zip(smooth.hysteresis_names, shapes, strict=True):
             passive[name] = direction * col
     out: list[NDArray | float] = []
     for name in names:
@@ -989,16 +980,23 @@ def _layout(
     return names, prior_mean, prior_prec
 
 
+def _hysteresis_columns(
+    names: Sequence[str], smooth: SmoothPassive | None, theta_j: NDArray
+) -> tuple[list[int], NDArray]:
+    """``h(theta_j)``'s coefficients (their indices in ``names``) and columns (a matrix)."""
+    theta_j = np.atleast_1d(np.asarray(theta_j, dtype=np.float64))
+    if smooth is None:
+        return [names.index("hysteresis")], np.ones((theta_j.size, 1))
+    index = [names.index(n) for n in ("hysteresis", *smooth.hysteresis_names)]
+    return index, smooth.hysteresis_design(theta_j)
+
+
 def _hysteresis_at(
-    names: Sequence[str], coef: NDArray, smooth: SmoothPassive | None, theta_j: float
-) -> float:
+    names: Sequence[str], coef: NDArray, smooth: SmoothPassive | None, theta_j: ArrayLike
+) -> NDArray:
     """``h(theta_j)`` (N m) under coefficients ``coef``: the constant and its change."""
-    value = float(coef[names.index("hysteresis")])
-    if smooth is not None:
-        shapes = smooth.columns(np.array([theta_j]))
-        for name, col in zip(smooth.hysteresis_names, shapes, strict=False):
-            value += float(coef[names.index(name)] * col[0])
-    return value
+    index, columns = _hysteresis_columns(names, smooth, np.asarray(theta_j, dtype=np.float64))
+    return columns @ coef[index]
 
 
 def _hold_sd(hysteresis: float, basis: PassiveBasis) -> float:
@@ -1087,6 +1085,13 @@ class _Regression:
         return mean, 0.5 * (cov + cov.T), weights
 
 
+def _smooth_part(basis: PassiveBasis, low: float, high: float) -> SmoothPassive | None:
+    """The smooth part over device angles ``low`` to ``high`` (rad); ``None`` for a fixed curve."""
+    if not basis.smooth:
+        return None
+    return SmoothPassive.over(basis.zero + low, basis.zero + high)
+
+
 def _smooth_prior(
     smooth: SmoothPassive | None, names: Sequence[str]
 ) -> tuple[NDArray, tuple[NDArray, ...]]:
@@ -1138,9 +1143,7 @@ def design_statics(
     g_m = np.array([1.0, 0.0, 0.0])  # d M_g along the phase direction
     per_block = rigid_se**2 / float(g_m @ np.linalg.inv(rigid.T @ rigid) @ g_m)
     per_second = per_block * sweep_seconds / blocks  # variance x seconds: a mean over T has /T
-    smooth = (
-        SmoothPassive.over(basis.zero + sweep[0], basis.zero + sweep[1]) if basis.smooth else None
-    )
+    smooth = _smooth_part(basis, sweep[0], sweep[1])
     order = [p.name for p in postures]
     pairs = [f"{condition}:{p}" for p in order]
     held = {(p, i): f"hold:{p}:{i}" for p in order for i in range(rest_trials)}
@@ -1247,11 +1250,7 @@ def fit_statics(
                 "(axis_tilt < 90 deg); M_g cannot be measured"
             )
     swept = np.concatenate([p.theta for p in prepared if p.record.kind != "rest"])
-    smooth = (
-        SmoothPassive.over(basis.zero + swept.min(), basis.zero + swept.max())
-        if basis.smooth
-        else None
-    )
+    smooth = _smooth_part(basis, swept.min(), swept.max())
     holds = {k: f"hold:{k}" for k, p in enumerate(prepared) if p.record.kind == "rest"}
     names, prior_mean, prior_prec = _layout(
         conditions, pairs, used, basis, smooth, tuple(holds.values())
@@ -1278,7 +1277,7 @@ def fit_statics(
                 mean0[i], prec0[i] = 0.0, 0.0
         for k, name in holds.items():  # within the hysteresis band the fit has so far
             band = _hysteresis_at(names, coef, smooth, basis.zero + prepared[k].theta.mean())
-            prec0[names.index(name)] = 1.0 / _hold_sd(band, basis) ** 2
+            prec0[names.index(name)] = 1.0 / _hold_sd(float(band[0]), basis) ** 2
         gram = np.zeros((n_coef, n_coef))
         rhs = np.zeros(n_coef)
         yy = 0.0
@@ -1334,7 +1333,7 @@ def fit_statics(
             prep,
             stacked_y[k] - designs[k] @ coef,
             offset=float(coef[names.index(holds[k])]) if k in holds else 0.0,
-            band=_hysteresis_at(names, coef, smooth, basis.zero + prep.theta.mean()),
+            band=float(_hysteresis_at(names, coef, smooth, basis.zero + prep.theta.mean())[0]),
         )
         for k, prep in enumerate(prepared)
     }

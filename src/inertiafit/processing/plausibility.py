@@ -40,12 +40,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.ndimage
 import xarray as xr
 
 from inertiafit.errors import InputError
 from inertiafit.processing.filtering import source_of
-from inertiafit.processing.gravity import MIN_RANGE, GravityFit
+from inertiafit.processing.gravity import MIN_RANGE, GravityFit, steady_angle
 from inertiafit.processing.inertia import NEGATIVE_SE, InertiaEstimate, torque_sign_hint
 from inertiafit.processing.window import MIN_SPEED_CHANGE, plateau_speed
 
@@ -288,8 +287,8 @@ def check_quasi_static_sweep(fit: GravityFit) -> GravityFit:
     )
 
 
-#: A rest trial whose angle (its running median, 51 samples) travels more than this (deg) is
-#: not a quiet hold.
+#: A rest trial whose angle (its running median, :func:`steady_angle`) travels more than this
+#: (deg) is not a quiet hold.
 REST_TRAVEL = 2.0
 
 
@@ -300,9 +299,7 @@ def check_rest_hold(trial: xr.Dataset) -> xr.Dataset:
     labelled ``kind = "rest"`` was taken as such a hold. Its angle's running median (a noisy
     channel's samples left aside) may travel at most :data:`REST_TRAVEL`. Returns ``trial``.
     """
-    angle = np.asarray(trial["angle"].values, dtype=np.float64)
-    size = min(51, max(1, (angle.size // 10) | 1))
-    steady = scipy.ndimage.median_filter(angle, size=size, mode="mirror")
+    steady = steady_angle(trial["angle"].values)
     travel = math.degrees(float(np.ptp(steady))) if steady.size else 0.0
     if travel <= REST_TRAVEL:
         return trial
