@@ -32,7 +32,7 @@ def generic_csv(n=20, rate=100.0, header="time,angle,velocity,torque"):
 
 def test_formats_registered():
     assert set(available_formats()) >= {"csv", "biodex", "humac", "analog"}
-    assert reader_options("csv") == ("delimiter", "decimal")
+    assert reader_options("csv") == ("delimiter", "decimal", "derive_velocity")
     assert reader_options("biodex") == ("anatomical", "set", "rep")
 
 
