@@ -86,7 +86,7 @@ def test_run_writes_the_living_joint(living_run):
 def test_report_redraws_the_living_joint_from_the_folder(living_run, tmp_path, monkeypatch):
     _, out = living_run
     result = load_result(out)
-    assert set(result.living) == {"passive_parameters", "passive_curve"}
+    assert set(result.living) == {"passive_parameters", "passive_curve", "static_fit"}
     # a started pool of figure workers receives the records pickled
     records = figure_records(result)
     assert "passive-curve" in [r.stem for r in records]
@@ -103,7 +103,7 @@ def test_report_redraws_the_living_joint_from_the_folder(living_run, tmp_path, m
         lambda res: [r for r in every(res) if r.stem == "passive-curve"],
     )
     assert main(["report", str(folder)]) == 0
-    for name in ("passive_parameters.csv", "passive.csv"):
+    for name in ("passive_parameters.csv", "passive.csv", "static_fit.csv"):
         assert (folder / name).read_bytes() == (out / name).read_bytes(), name
     assert (folder / "passive_parameters.md").read_bytes() == (
         out / "passive_parameters.md"

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from inertiafit.formatting import interval, plural
 from inertiafit.physics import UNITS
+from inertiafit.posterior import pins
 
 if TYPE_CHECKING:
     from inertiafit.posterior.core import Posterior
@@ -27,6 +28,21 @@ __all__ = [
     "text_report",
     "trial_counts",
 ]
+
+
+def measured_line(tree, body: str, minimum_mass: float) -> str:
+    """What the data measure of ``body``, in words (:func:`pins.measured_quantities`)."""
+    measured = pins.measured_quantities(tree, body)
+    if len(measured) == 2:
+        return (
+            f"{body}: the data identify m·x and I; physical consistency needs "
+            f"m >= (M_g/g)^2/I = {minimum_mass:.4g} kg"
+        )
+    if measured == ("gravity_moment",):
+        return f"{body}: the data identify m·x alone (no fast trials: its I is the prior's)"
+    if measured == ("inertia",):
+        return f"{body}: the data identify I alone (its M_g is not measured: the prior's)"
+    return f"{body}: the data measure none of its parameters: every interval is its prior's"
 
 
 def table_rows(post: Posterior, hdi_prob: float) -> list[dict[str, Any]]:
@@ -123,10 +139,7 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
     ident = post.identification()
     for body in post.bodies:
         mmin = float(ident.loc[ident.body == body, "minimum_mass"].iloc[0])
-        lines.append(
-            f"{body}: the data identify m·x and I; physical consistency needs "
-            f"m >= (M_g/g)^2/I = {mmin:.4g} kg"
-        )
+        lines.append(measured_line(post.tree, body, mmin))
     lines.append(
         "What pins what. prior share = d log(posterior SD) / d log(prior scale): 1 when the "
         "prior alone sets a quantity's width, 0 when the data do (values a little outside 0-1 "

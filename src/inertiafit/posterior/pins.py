@@ -64,6 +64,7 @@ __all__ = [
     "correlation_table",
     "counted_sources",
     "gain_scaling_log_weights",
+    "measured_quantities",
     "pinned_by",
     "pins_line",
     "prior_scaling_log_weights",
@@ -253,6 +254,33 @@ def body_sources(tree: xr.DataTree, body: str) -> list[str]:
     if _mountings(tree, body):
         out.append("second mounting")
     return out
+
+
+def measured_quantities(tree: xr.DataTree, body: str) -> tuple[str, ...]:
+    """Which of ``gravity_moment`` and ``inertia`` the data measure for ``body``.
+
+    A quantity is measured when ``observed_data`` holds at least one value of it from a
+    condition that mounts the body (the root attribute ``inputs``' ``conditions``; without
+    it, the one body's every condition, or the bodies a ``+`` joins in a label). A study
+    without fast trials measures no ``I``; one with a living body in one posture, no ``M_g``.
+    """
+    if "observed_data" not in tree.children:
+        return ()
+    held = json.loads(tree.attrs.get("inputs", "{}")).get("conditions")
+    obs = tree["observed_data"].to_dataset()
+    if held is None:  # fitted from numbers, or a Model built by hand: labels name the bodies
+        labels = {str(v) for c in obs.coords if c.endswith("_condition") for v in obs[c].values}
+        single = tree["posterior"].sizes.get("body", 1) == 1
+        held = {c: [body] if single else c.split("+") for c in labels}
+    mounting = {c for c, bodies in held.items() if body in bodies}
+    found = []
+    for name in ("gravity_moment", "inertia"):
+        label = f"{name}_condition"
+        if name not in obs or label not in obs.coords:
+            continue
+        if mounting & {str(v) for v in np.asarray(obs[label].values).tolist()}:
+            found.append(name)
+    return tuple(found)
 
 
 def _labels(arr: xr.DataArray, dim: str) -> list[str]:

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -522,6 +522,10 @@ class LivingStatics:
         The posterior weight of each point of :attr:`SmoothPassive.grid`.
     checks : dict of str to TrialCheck
         Each quasi-static and rest trial against the fitted model, by file.
+    fit_points : pandas.DataFrame or None
+        Each trial beside the fitted model (:data:`FIT_POINT_COLUMNS`): a sweep at up to
+        :data:`FIT_POINTS` angles (means of consecutive samples), a rest hold as one point
+        against the midline, with the band ``+-h`` a joint at rest may hold within.
     """
 
     names: tuple[str, ...]
@@ -539,6 +543,7 @@ class LivingStatics:
     regression: _Regression | None = None
     hyper_weights: NDArray | None = None
     checks: dict[str, TrialCheck] = field(default_factory=dict)
+    fit_points: pd.DataFrame | None = None
 
     def index(self, name: str) -> int:
         """Position of a coefficient."""
@@ -815,9 +820,14 @@ class LivingStatics:
         ``upper`` (N m, the 95 % band), ``prior_lower``, ``prior_upper`` (the passive
         prior's 95 % band, also relative to the middle), ``hysteresis``,
         ``hysteresis_lower``, ``hysteresis_upper`` (N m: the direction-dependent moment
-        ``h(theta_j)`` and its 95 % band) and ``gravity:<condition>``: each
+        ``h(theta_j)`` and its 95 % band), ``gravity:<condition>``: each
         living condition's gravity moment ``M_g sin(theta + phi)`` in the first posture,
-        relative to its middle too, to set the two side by side.
+        relative to its middle too, to set the two side by side; and ``static:<key>``,
+        ``static_lower:<key>``, ``static_upper:<key>`` for each condition and posture
+        (``<condition>@<posture>``, or the condition in a study without postures): the static
+        moment a quiet hold reads there (the midline between the sweep directions: gravity,
+        the passive curve and the offset together), absolute, with its 95 % band. One posture
+        measures this sum, whatever it leaves of its split.
         """
         lo, hi = self.angle_range
         theta = np.radians(np.arange(math.degrees(lo), math.degrees(hi) + 1e-9, step_deg))
@@ -857,7 +867,26 @@ class LivingStatics:
             b = self.coefficients[self.index(f"B:{cond}")]
             curve = a * np.sin(theta) + b * np.cos(theta)
             table[f"gravity:{cond}"] = curve - (a * math.sin(mid) + b * math.cos(mid))
-        return table
+        for cond, posture in self.setups:  # what the dynamometer reads, measured in any design
+            x = _matrix(self.columns(theta, cond, posture, 0), theta)
+            static = x @ self.coefficients
+            static_sd = np.sqrt(np.einsum("ij,jk,ik->i", x, self.covariance, x))
+            key = f"{cond}@{posture}" if posture else cond
+            table[f"static:{key}"] = static
+            table[f"static_lower:{key}"] = static - z * static_sd
+            table[f"static_upper:{key}"] = static + z * static_sd
+        return table[_curve_order(table.columns)]
+
+    @property
+    def setups(self) -> list[tuple[str, str]]:
+        """Each ``(condition, posture)`` whose quasi-static or rest trials were fitted."""
+        out = []
+        for name in self.names:
+            kind, _, rest = name.partition(":")
+            if kind == "C":
+                cond, _, posture = rest.rpartition(":")
+                out.append((cond, posture))
+        return out
 
 
 def _columns(
@@ -935,6 +964,77 @@ def posture_geometry(posture: Posture) -> PostureGeometry:
         math.radians(posture.gravity_rotation_sd),
         math.radians(posture.axis_tilt),
     )
+
+
+#: Points per sweep in :attr:`LivingStatics.fit_points` (and the report's figure of the fit).
+FIT_POINTS = 60
+#: Columns of :attr:`LivingStatics.fit_points` (``static_fit.csv``): the trial (``source``,
+#: ``kind``, ``condition``, ``posture``, ``direction`` +1/-1, 0 for a hold), where
+#: (``joint_angle``, ``device_angle``, deg), what it read (``measured``, N m), what the fit
+#: says (``fitted``, a hold's midline, and its SD ``fitted_sd``), ``residual`` and the band a
+#: hold may sit within (``allowed``, ``|h|``; 0 for a sweep).
+FIT_POINT_COLUMNS = (
+    "source",
+    "kind",
+    "condition",
+    "posture",
+    "direction",
+    "joint_angle",
+    "device_angle",
+    "measured",
+    "fitted",
+    "fitted_sd",
+    "residual",
+    "allowed",
+)
+
+
+def _fit_points(
+    prepared: Sequence[_Prepared],
+    designs: Sequence[NDArray],
+    ys: Sequence[NDArray],
+    coef: NDArray,
+    covariance: NDArray,
+    names: Sequence[str],
+    holds: Mapping[int, str],
+    basis: PassiveBasis,
+    smooth: SmoothPassive | None,
+) -> pd.DataFrame:
+    """:attr:`LivingStatics.fit_points` of the fitted trials."""
+    rows = []
+    for k, prep in enumerate(prepared):
+        x, y, theta = designs[k], ys[k], prep.theta
+        size = theta.size if k in holds else max(1, math.ceil(theta.size / FIT_POINTS))
+        starts = np.arange(0, theta.size, size)
+        counts = np.diff(np.r_[starts, theta.size])[:, None]
+        xb = np.add.reduceat(x, starts, axis=0) / counts
+        yb, tb = _blocks(y, size), _blocks(theta, size)
+        fitted = xb @ coef
+        allowed = np.zeros_like(fitted)
+        if k in holds:
+            fitted -= coef[names.index(holds[k])]
+            xb[:, names.index(holds[k])] = 0.0
+            allowed = np.abs(_hysteresis_at(names, coef, smooth, basis.zero + tb))
+        sd = np.sqrt(np.einsum("ij,jk,ik->i", xb, covariance, xb))
+        r = prep.record
+        for i in range(tb.size):
+            rows.append(
+                (
+                    r.source,
+                    r.kind,
+                    r.condition,
+                    r.posture,
+                    prep.direction,
+                    math.degrees(basis.zero + tb[i]),
+                    math.degrees(tb[i]),
+                    float(yb[i]),
+                    float(fitted[i]),
+                    float(sd[i]),
+                    float(yb[i] - fitted[i]),
+                    float(allowed[i]),
+                )
+            )
+    return pd.DataFrame(rows, columns=list(FIT_POINT_COLUMNS))
 
 
 def _matrix(columns: Sequence[NDArray | float], theta: NDArray) -> NDArray:
@@ -1337,6 +1437,9 @@ def fit_statics(
         )
         for k, prep in enumerate(prepared)
     }
+    points = _fit_points(
+        prepared, designs, stacked_y, coef, covariance, names, holds, basis, smooth
+    )
     noise = {
         c: _condition_noise(
             [p for p in prepared if p.record.condition == c], names, geometry, basis, coef, smooth
@@ -1358,6 +1461,7 @@ def fit_statics(
         smooth=smooth,
         regression=regression,
         hyper_weights=hyper if smooth is not None else None,
+        fit_points=points,
         checks=checks,
     )
 
@@ -1455,25 +1559,45 @@ def living_tables_from_dict(stored: Mapping[str, Mapping[str, list]]) -> dict[st
     out = {}
     for name, columns in stored.items():
         frame = pd.DataFrame(dict(columns))
-        first = PARAMETER_COLUMNS if name == "passive_parameters" else CURVE_COLUMNS
-        order = [c for c in first if c in frame] + sorted(c for c in frame if c not in first)
-        out[name] = frame[order]
+        if name == "passive_curve":
+            out[name] = frame[_curve_order(frame.columns)]
+            continue
+        first = {"passive_parameters": PARAMETER_COLUMNS, "static_fit": FIT_POINT_COLUMNS}[name]
+        out[name] = frame[[c for c in first if c in frame]]
     return out
+
+
+def _curve_order(columns: Iterable[str]) -> list[str]:
+    """``passive.csv``'s column order, the same however its columns were stored.
+
+    :data:`CURVE_COLUMNS`, the ``gravity:`` columns, then each condition and posture's
+    ``static:``, ``static_lower:``, ``static_upper:`` (keys sorted).
+    """
+    columns = list(columns)
+    rank = {"gravity": 0, "static": 1, "static_lower": 2, "static_upper": 3}
+
+    def place(column: str) -> tuple:
+        prefix, _, key = column.partition(":")
+        return (0, "", 0) if prefix == "gravity" else (1, key, rank[prefix])
+
+    extra = sorted((c for c in columns if c not in CURVE_COLUMNS), key=lambda c: (place(c), c))
+    return [c for c in CURVE_COLUMNS if c in columns] + extra
 
 
 def living_tables(
     statics: LivingStatics, damping: tuple[float, float] | None, *, body: str = ""
 ) -> dict[str, pd.DataFrame]:
-    """The living joint's outputs: ``passive_parameters`` and ``passive_curve``.
+    """The living joint's outputs: ``passive_parameters``, ``passive_curve``, ``static_fit``.
 
     ``passive_parameters``: one row per parameter of the joint — the passive coefficients,
-    the hysteresis, the viscous damping ``b`` (the fast trials'), each posture's fitted
+    the hysteresis, the viscous damping ``b`` (the fast trials'; without them its prior,
+    ``pinned_by`` saying so), each posture's fitted
     rotation, and each living condition's ``M_g`` with what decided it (``pinned_by``) and
     how much its SE grows when the passive prior's SDs double
     (:meth:`LivingStatics.prior_leverage`) — columns ``parameter``, ``unit``, ``mean``,
     ``sd``, ``lower``, ``upper`` (95 %), ``prior_mean``, ``prior_sd``, ``pinned_by``,
     ``prior_leverage``, and ``body``, the living body. ``passive_curve``:
-    :meth:`LivingStatics.passive_curve`.
+    :meth:`LivingStatics.passive_curve`. ``static_fit``: :attr:`LivingStatics.fit_points`.
     """
     rows = []
 
@@ -1503,7 +1627,17 @@ def living_tables(
             rows[-1] |= {"lower": lower, "upper": upper}
     if damping is not None:
         add("damping", "N m s/rad", damping[0], damping[1], statics.basis.damping, "data")
+    else:  # a slow sweep's b*omega (0.01 N m at 5 deg/s) is within its hysteresis
+        add(
+            "damping",
+            "N m s/rad",
+            *statics.basis.damping,
+            statics.basis.damping,
+            "prior (no fast trials of the living body)",
+        )
     for name, posture in statics.postures.items():
+        if not name:  # a study without [postures]: one, unrotated
+            continue
         key = f"rotation:{name}"
         sd = statics.value(key)[1] if key in statics.names else 0.0
         add(key, "deg", math.degrees(posture.rotation), math.degrees(sd))
@@ -1517,7 +1651,10 @@ def living_tables(
             pinned=statics.pinned_by(cond),
             leverage=statics.prior_leverage(cond),
         )
-    return {
+    tables = {
         "passive_parameters": pd.DataFrame(rows, columns=list(PARAMETER_COLUMNS)),
         "passive_curve": statics.passive_curve(),
     }
+    if statics.fit_points is not None:
+        tables["static_fit"] = statics.fit_points
+    return tables

@@ -586,6 +586,11 @@ def _process(
                 "(the postures' rotations or the trials' noise weights still moved after 30 "
                 "iterations); its M_g is the last iteration's"
             )
+        if statics.fit_points is not None:  # the files as trials.csv names them
+            points = statics.fit_points.assign(
+                source=[_relative(Path(f), study.base_dir) for f in statics.fit_points.source]
+            )
+            statics = dataclasses.replace(statics, fit_points=points)
         _apply_checks(study, statics, data, rows, notes)
         _check_rotations(study, statics, postures, notes)
         if statics.at_amplitude_edge() > SMOOTH_EDGE_WEIGHT:
@@ -596,10 +601,12 @@ def _process(
                 "file's; check joint_angle_at_zero, the joint and the torque's sign"
             )
         if not statics.gravity_identified:
+            fast = any(s.kind == "fast" and s.condition in living_conditions for s, _ in data)
+            inertia = "its I is measured" if fast else "without fast trials its I is not either"
             notes.append(
                 f"{study.path}: one posture: the living body's M_g is not measured (a passive "
                 "curve of any smooth shape can mimic gravity over one sweep), so its prior "
-                "decides it; its I is measured. A second posture >= 30 deg away or a "
+                f"decides it; {inertia}. A second posture >= 30 deg away or a "
                 "horizontal-plane condition measures M_g"
             )
         if len(statics.conditions) > 1:

@@ -128,6 +128,21 @@ def figure_records(result: Result) -> list[FigureRecord]:
                 "gravity moment beside it, both relative to the middle of the swept range",
             )
         )
+        if "static_fit" in result.living:
+            add(
+                FigureRecord(
+                    "static-fit",
+                    functools.partial(
+                        plots.plot_static_fit,
+                        result.living["static_fit"],
+                        result.living["passive_curve"],
+                    ),
+                    "Living joint",
+                    "the quasi-static and rest trials against the fitted static moment of "
+                    "each posture (95% band), and the residuals: what the fit of gravity and "
+                    "the passive curve left in each trial",
+                )
+            )
     if len(result.trials):
         for cond, traces in traces_by_condition(result.traces).items():
             add(

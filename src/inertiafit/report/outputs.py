@@ -235,8 +235,9 @@ def _draw_in(
 def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
     """summary, identification, comparison and speed_effect as CSV (+ .md, .tex).
 
-    A living body adds ``passive_parameters`` (CSV, .md, .tex) and ``passive.csv`` (the
-    passive elastic moment on an angle grid, median and 95 % band).
+    A living body adds ``passive_parameters`` (CSV, .md, .tex), ``passive.csv`` (the
+    passive elastic moment on an angle grid, median and 95 % band, and the static moment of
+    each posture) and ``static_fit.csv`` (each quasi-static and rest trial beside the fit).
     """
     summary = result.summary(hdi_prob)
     write_table(
@@ -279,6 +280,8 @@ def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
             ),
         )
         write_csv(result.living["passive_curve"], folder / "passive.csv")
+        if "static_fit" in result.living:
+            write_csv(result.living["static_fit"], folder / "static_fit.csv")
 
 
 def write_outputs(

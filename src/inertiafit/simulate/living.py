@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertiafit.io.units import DEG
 from inertiafit.mounting import Mounting
-from inertiafit.passive import JOINTS, passive_moment
+from inertiafit.passive import JOINTS, passive_moment, riener_edrich_ankle, riener_edrich_knee
 from inertiafit.physics import GRAVITY
 from inertiafit.simulate.emg import EmgSimulation, Reflex
 from inertiafit.simulate.emg import truth_lines as emg_truth_lines
@@ -93,6 +93,9 @@ PASSIVE_KEYS = (
     "shape_size",
     "shape_width",
     "hysteresis_slope",
+    "hip_angle",
+    "ankle_angle",
+    "knee_angle",
 )
 #: Passive curves outside the model's family (spring, exponential stops, scaled literature
 #: curve), added to ``P`` by :attr:`PassiveTruth.shape` to check that the analysis does not
@@ -139,6 +142,16 @@ class PassiveTruth:
         ``b`` (N m s/rad), the viscous moment ``b omega``.
     hysteresis : float
         ``h`` (N m), the moment ``h smooth_sign(omega)`` (:func:`smooth_sign`).
+    shape, shape_size, shape_width : str, float, float
+        A curve outside the model's family added to ``P`` (:data:`SHAPES`).
+    hysteresis_slope : float
+        How much ``h`` changes (N m) from the middle of :attr:`range` to its ends.
+    hip_angle, ankle_angle, knee_angle : float
+        The other joints' angles (deg) at which this subject's literature curve is taken:
+        the hip's and the ankle's for the knee, the knee's for the ankle. Riener & Edrich's
+        curves change with them (bi-articular muscles), so a subject seated other than as the
+        prior file assumes (hip 90, ankle 0, knee 90) has a curve of another shape, not only
+        another scale.
     """
 
     joint: str
@@ -156,6 +169,9 @@ class PassiveTruth:
     shape_size: float = 0.0
     shape_width: float = 20.0
     hysteresis_slope: float = 0.0
+    hip_angle: float = 90.0
+    ankle_angle: float = 0.0
+    knee_angle: float = 90.0
 
     def _unit(self, theta_j: NDArray) -> tuple[NDArray, float]:
         """``(theta_j - mid)`` (rad) over :attr:`range`, and its half width (rad)."""
@@ -187,18 +203,36 @@ class PassiveTruth:
     def elastic(self, angle: ArrayLike) -> NDArray:
         """``P`` (N m) at device angles ``angle`` (rad)."""
         theta_j = math.radians(self.joint_angle_at_zero) + np.asarray(angle, dtype=np.float64)
-        return self.extra(theta_j) + passive_moment(
-            theta_j,
-            stiffness=self.stiffness,
-            relaxed=math.radians(self.relaxed_angle),
-            stop_low=self.stop_moment_low,
-            stop_high=self.stop_moment_high,
-            range_low=math.radians(self.range[0]),
-            range_high=math.radians(self.range[1]),
-            width=math.radians(self.stop_width),
-            scale=self.curve_scale,
-            joint=self.joint,
+        return (
+            self.extra(theta_j)
+            + self.literature(theta_j)
+            + passive_moment(
+                theta_j,
+                stiffness=self.stiffness,
+                relaxed=math.radians(self.relaxed_angle),
+                stop_low=self.stop_moment_low,
+                stop_high=self.stop_moment_high,
+                range_low=math.radians(self.range[0]),
+                range_high=math.radians(self.range[1]),
+                width=math.radians(self.stop_width),
+            )
         )
+
+    def literature(self, theta_j: ArrayLike) -> NDArray:
+        """``curve_scale`` times this subject's literature curve (N m) at ``theta_j`` (rad).
+
+        Riener & Edrich's knee or ankle curve at :attr:`hip_angle`, :attr:`ankle_angle` or
+        :attr:`knee_angle`, as the device's moment (the negative of the tissue's, as
+        :func:`inertiafit.passive.literature_curve`); zero for the other joints.
+        """
+        deg = np.degrees(np.asarray(theta_j, dtype=np.float64))
+        if self.joint == "knee":
+            curve = -riener_edrich_knee(deg, hip_deg=self.hip_angle, ankle_deg=self.ankle_angle)
+        elif self.joint == "ankle":
+            curve = -riener_edrich_ankle(deg, knee_deg=self.knee_angle)
+        else:
+            return np.zeros_like(deg)
+        return self.curve_scale * curve
 
     def torque(self, angle: ArrayLike, velocity: ArrayLike) -> NDArray:
         """The joint's whole moment (N m): ``P + b omega + h smooth_sign(omega)``.

@@ -32,7 +32,7 @@ from inertiafit.report.plots.corner import plot_joint_corner
 from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
 from inertiafit.report.plots.emg import plot_emg_envelopes
 from inertiafit.report.plots.identification import CURVE_PAIRS, plot_identification_curve
-from inertiafit.report.plots.living import plot_passive_curve
+from inertiafit.report.plots.living import plot_passive_curve, plot_static_fit
 from inertiafit.report.plots.trials import plot_fast_trials, plot_inertia_by_speed
 
 __all__ = [
@@ -55,6 +55,7 @@ __all__ = [
     "plot_joint_corner",
     "plot_passive_curve",
     "plot_rank",
+    "plot_static_fit",
     "plot_trace",
     "rank_groups",
     "save_figure",
