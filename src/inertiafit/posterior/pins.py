@@ -269,7 +269,9 @@ def measured_quantities(tree: xr.DataTree, body: str) -> tuple[str, ...]:
     held = json.loads(tree.attrs.get("inputs", "{}")).get("conditions")
     obs = tree["observed_data"].to_dataset()
     if held is None:  # fitted from numbers, or a Model built by hand: labels name the bodies
-        labels = {str(v) for c in obs.coords if c.endswith("_condition") for v in obs[c].values}
+        labels = {
+            str(v) for c in obs.coords if str(c).endswith("_condition") for v in obs[c].values
+        }
         single = tree["posterior"].sizes.get("body", 1) == 1
         held = {c: [body] if single else c.split("+") for c in labels}
     mounting = {c for c, bodies in held.items() if body in bodies}
