@@ -180,6 +180,27 @@ def binomial_interval(k: int, n: int) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
+def living_shank_bodies(rng) -> tuple[dict, dict]:
+    """A seated knee study's bodies: ``(truth, priors)`` drawn from ``rng``.
+
+    A knee attachment (a shin pad on a lever: 1.8 kg +-20 %, radius of gyration 0.10 m +-20 %,
+    centre of mass 0.20 m from the axis) and an adult's shank and foot (4.2 kg +-30 %, about
+    5.6 % of a 75 kg body, de Leva 1996; radius of gyration about its centre of mass 0.17 m
+    +-20 %, centre of mass 0.26 m below the knee), the truth drawn uniformly from the +-50 %
+    box around them, as :func:`living_forearm_bodies`.
+    """
+    nominal = {
+        "attachment": (1.8 * rng.uniform(0.8, 1.2), 0.10 * rng.uniform(0.8, 1.2), 0.20),
+        "shank": (4.2 * rng.uniform(0.7, 1.3), 0.17 * rng.uniform(0.8, 1.2), 0.26),
+    }
+    truth = {b: tuple(v * rng.uniform(0.5, 1.5) for v in nom) for b, nom in nominal.items()}
+    priors = {
+        b: {"mass": v[0], "radius_of_gyration": v[1], "com_distance": v[2]}
+        for b, v in nominal.items()
+    }
+    return truth, priors
+
+
 def living_forearm_bodies(rng) -> tuple[dict, dict]:
     """A living-forearm study's bodies: ``(truth, priors)`` drawn from ``rng``.
 

@@ -41,6 +41,7 @@ Run:  .venv/bin/python benchmarks/living_shapes.py [--quick] [--studies N] [--se
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import sys
@@ -52,7 +53,14 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from common import binomial_interval, hdi, living_forearm_bodies, standalone, table
+from common import (
+    binomial_interval,
+    hdi,
+    living_forearm_bodies,
+    living_shank_bodies,
+    standalone,
+    table,
+)
 
 HDI = 0.95
 Z95 = 1.959963984540054
@@ -62,18 +70,32 @@ MODELS = ("smooth", "fixed")
 #: Where the passive curve is checked: fractions of the swept range (its middle is the
 #: curve's zero, so it is left out).
 CURVE_AT = (0.05, 0.25, 0.4, 0.75, 0.95)
-SWEPT = (30.0, 120.0)  # the elbow's angles over the simulator's default 0-90 deg sweep
+#: The limbs: the living body, the joint angle at the device's 0 (deg), the joint angles swept
+#: over the simulator's default 0-90 deg sweep, the gravity phase (rad: the knee's shank hangs
+#: straight down at 90 deg of flexion, the device's 70), the bodies' draw and how much larger
+#: the joint's moments are than the elbow's.
+LIMBS = {
+    "elbow": ("forearm", 30.0, (30.0, 120.0), 0.0, living_forearm_bodies, 1.0),
+    "knee": ("shank", 20.0, (20.0, 110.0), math.radians(-70.0), living_shank_bodies, 2.5),
+}
+SWEPT = LIMBS["elbow"][2]
 
 
-def draw_passive(rng: np.random.Generator, shape: str) -> dict:
-    """The passive joint's given values (``simulate_living_study``'s ``passive``)."""
+def draw_passive(rng: np.random.Generator, shape: str, joint: str = "elbow") -> dict:
+    """The passive joint's given values (``simulate_living_study``'s ``passive``).
+
+    The knee's moments are :data:`LIMBS`' factor larger, and its subject sits with the hip
+    flexed 70-110 deg and the ankle at -15 to +15 deg, where the prior file's Riener & Edrich
+    curve is the one at 90 and 0: each subject's literature curve has its own shape.
+    """
+    grow = LIMBS[joint][5]
     out = {
-        "range": SWEPT,
+        "range": LIMBS[joint][2],
         "stop_width": float(rng.uniform(8.0, 25.0)),
-        "stop_moment_low": float(rng.uniform(0.2, 1.5)),
-        "stop_moment_high": float(rng.uniform(0.2, 1.5)),
-        "hysteresis": float(rng.uniform(0.05, 0.15)),
-        "hysteresis_slope": float(rng.uniform(-0.05, 0.05)),
+        "stop_moment_low": float(grow * rng.uniform(0.2, 1.5)),
+        "stop_moment_high": float(grow * rng.uniform(0.2, 1.5)),
+        "hysteresis": float(grow * rng.uniform(0.05, 0.15)),
+        "hysteresis_slope": float(grow * rng.uniform(-0.05, 0.05)),
         "shape": "none" if shape == "stops" else shape,
     }
     size = {
@@ -84,7 +106,11 @@ def draw_passive(rng: np.random.Generator, shape: str) -> dict:
         "bump": rng.uniform(0.5, 2.0) * rng.choice([-1.0, 1.0]),
     }[shape]
     width = rng.uniform(10.0, 25.0) if shape == "bump" else rng.uniform(10.0, 30.0)
-    return out | {"shape_size": float(size), "shape_width": float(width)}
+    out |= {"shape_size": float(grow * size), "shape_width": float(width)}
+    if joint == "knee":
+        out |= {"hip_angle": float(rng.uniform(70.0, 110.0))}
+        out |= {"ankle_angle": float(rng.uniform(-15.0, 15.0))}
+    return out
 
 
 def fixed_view(manifest: Path) -> Path:
@@ -99,7 +125,7 @@ def _inside(value: float, mean: float, sd: float) -> bool:
     return abs(value - mean) <= Z95 * sd
 
 
-def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
+def one_study(design: str, seed: int, *, sample: bool = True, joint: str = "elbow") -> dict:
     """Simulate one study; both models' intervals against the truth.
 
     ``sample=False`` (the tests' small version) stops after the processing: the forearm's
@@ -118,11 +144,12 @@ def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
 
     rng = np.random.default_rng([seed, 32])
     shape = SHAPES[seed % len(SHAPES)]
-    truth, priors = living_forearm_bodies(rng)
-    passive = draw_passive(rng, shape)
+    living, zero, _, phi, bodies, _ = LIMBS[joint]
+    truth, priors = bodies(rng)
+    passive = draw_passive(rng, shape, joint)
     settings = SamplerSettings(progress=False)
-    out: dict = {"design": design, "seed": seed, "shape": shape}
-    m, rho, x = truth["forearm"]
+    out: dict = {"design": design, "seed": seed, "shape": shape, "joint": joint}
+    m, rho, x = truth[living]
     true = {"I": float(inertia(m, rho, x)), "M_g": float(gravity_moment(m, x, 9.81))}
     with tempfile.TemporaryDirectory() as tmp:
         manifest = simulate_living_study(
@@ -134,10 +161,14 @@ def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
             priors=priors,
             passive=passive,
             declare_stops=False,
+            joint=joint,
+            joint_angle_at_zero=zero,
+            living=living,
+            phi=phi,
         )
         doc = tomllib.loads((Path(tmp) / "truth.toml").read_text())
         joint_doc = {k: v for k, v in doc["passive"].items() if k != "postures"}
-        joint = PassiveTruth(**(joint_doc | {"range": tuple(joint_doc["range"])}))
+        actual = PassiveTruth(**(joint_doc | {"range": tuple(joint_doc["range"])}))
         condition = doc["conditions"]["B"]
         for model in MODELS:
             path = manifest if model == "smooth" else fixed_view(manifest)
@@ -163,11 +194,11 @@ def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
                 continue
             out[f"{model} seconds"] = time.perf_counter() - start
             statics = processed.living
-            key = "attachment+forearm"
+            key = f"attachment+{living}"
             out[f"{model} pinned_by"] = statics.pinned_by(key)
             if post is not None:
                 for q, name in (("I", "inertia"), ("M_g", "gravity_moment")):
-                    draws = post.draws("forearm", name)
+                    draws = post.draws(living, name)
                     lo, hi = hdi(draws, HDI)
                     out[f"{model} {q} inside"] = bool(lo <= true[q] <= hi)
                     out[f"{model} {q} width"] = (hi - lo) / true[q]
@@ -189,10 +220,21 @@ def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
                     out[f"{model} {q} inside"] = _inside(value, mean, sd)
                     out[f"{model} {q} width"] = 2 * Z95 * sd / value
                     out[f"{model} {q} z"] = (mean - value) / sd
+                # the living body's own: less the rigid condition's (as the posterior does)
+                rigid = processed.trials[
+                    (processed.trials.condition == "attachment")
+                    & (processed.trials.kind == "fast")
+                ]
+                a_mean = float(rigid.inertia.mean())
+                a_se = float(rigid.inertia.std()) / math.sqrt(len(rigid))
+                mean, sd, _ = evidence["I"]
+                sd = math.hypot(sd, a_se)
+                out[f"{model} body I z"] = (mean - a_mean - true["I"]) / sd
+                out[f"{model} body I inside"] = abs(out[f"{model} body I z"]) <= Z95
             b, b_sd = processed.damping
-            out[f"{model} b inside"] = _inside(joint.damping, b, b_sd)
+            out[f"{model} b inside"] = _inside(actual.damping, b, b_sd)
             h, h_sd = statics.value("hysteresis")
-            out[f"{model} h inside"] = _inside(joint.hysteresis, h, h_sd)
+            out[f"{model} h inside"] = _inside(actual.hysteresis, h, h_sd)
             lo_rad, hi_rad = statics.angle_range
             mid = 0.5 * (lo_rad + hi_rad)
             theta = lo_rad + np.array(CURVE_AT) * (hi_rad - lo_rad)
@@ -202,7 +244,7 @@ def one_study(design: str, seed: int, *, sample: bool = True) -> dict:
             sd = np.sqrt(
                 np.einsum("ij,jk,ik->i", cols, statics.covariance[np.ix_(idx, idx)], cols)
             )
-            value = joint.elastic(theta) - joint.elastic(mid)
+            value = actual.elastic(theta) - actual.elastic(mid)
             out[f"{model} curve inside"] = int(np.sum(np.abs(value - mean) <= Z95 * sd))
     return out
 
@@ -213,16 +255,21 @@ def run(
     seed: int = 20261202,
     studies: int | None = None,
     designs: str | None = None,
+    joint: str = "elbow",
 ) -> dict:
     n = studies or (5 if quick else 40)
     chosen = tuple(designs.split(",")) if designs else DESIGNS
     unknown = sorted(set(chosen) - set(DESIGNS))
     if unknown:
         raise SystemExit(f"--designs: unknown {unknown}; choose among {', '.join(DESIGNS)}")
+    if joint not in LIMBS:
+        raise SystemExit(f"--joint: unknown {joint!r}; choose among {', '.join(LIMBS)}")
     jobs = [(d, seed + i) for d in chosen for i in range(n)]
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
-        results = list(pool.map(one_study, *zip(*jobs, strict=True)))
+        results = list(
+            pool.map(functools.partial(one_study, joint=joint), *zip(*jobs, strict=True))
+        )
     rows = []
     for design in chosen:
         sub = [r for r in results if r["design"] == design]
@@ -249,6 +296,7 @@ def run(
         for model in MODELS
     }
     out = {
+        "joint": joint,
         "studies_per_design": n,
         "rows": rows,
         "missed_shapes": missed,
@@ -278,9 +326,9 @@ def show(out: dict) -> str:
     return "\n".join(
         [
             (
-                f"== Living limbs, passive curves outside the model's family: "
-                f"{out['studies_per_design']} studies per design, shapes {', '.join(SHAPES)} "
-                "(benchmarks/living_shapes.py)"
+                f"== Living limbs ({out.get('joint', 'elbow')}), passive curves outside the "
+                f"model's family: {out['studies_per_design']} studies per design, shapes "
+                f"{', '.join(SHAPES)} (benchmarks/living_shapes.py)"
             ),
             table(cols, out["rows"]),
             f"shapes of the M_g misses at two postures or the horizontal plane: {out['missed_shapes']}",
@@ -298,6 +346,7 @@ def main() -> None:
         options={
             "--studies": {"type": int, "default": None, "help": "studies per design"},
             "--designs": {"default": None, "help": f"comma-separated, among {DESIGNS}"},
+            "--joint": {"default": "elbow", "help": f"the living limb, among {tuple(LIMBS)}"},
         },
     )
 
