@@ -282,3 +282,60 @@ def test_the_fit_table_names_the_files_as_trials_csv_does(ankle_files, tmp_path)
     processed = process_study(load_study(root / "study.toml"))
     sources = set(processed.living.fit_points["source"])
     assert sources == {"data/Pas_Sho2Long.csv", "data/Pas_10.csv", "data/Pas_Long2Sho.csv"}
+
+
+# -- the joint fit in posterior.nc, as DataTree groups (issue 32, item 7) -----------------------
+
+
+def test_the_living_joint_is_a_group_xarray_and_arviz_open(ankle_run):
+    import arviz
+    import xarray as xr
+
+    out, _ = ankle_run
+    with xr.open_datatree(out / "posterior.nc", engine="h5netcdf") as tree:
+        living = tree["living"]
+        assert set(living.children) == {"parameters", "curve", "static_fit", "fit"}
+        fit = living["fit"].to_dataset().load()
+        curve = living["curve"].to_dataset().to_dataframe()
+    # the fit whole: coefficients with their covariance, each trial's check, the hyper-grid
+    names = [str(n) for n in fit["coefficient"].values]
+    assert names[:2] == ["A:foot", "B:foot"]
+    assert "hysteresis" in names
+    cov = fit["covariance"].values
+    np.testing.assert_allclose(cov, cov.T, rtol=1e-10)
+    assert np.all(np.linalg.eigvalsh(cov) > 0)
+    assert [str(t) for t in fit["trial"].values] == [f"data/{n}.csv" for n in (*SWEEPS, *HOLDS)]
+    flagged = dict(zip(fit["trial"].values, fit["flagged"].values, strict=True))
+    assert flagged["data/Pas_Long2Sho.csv"] == 1  # as trials.csv says
+    assert float(fit["weight"].sum()) == pytest.approx(1.0)
+    assert fit.attrs["gravity_identified"] == 0
+    assert fit.attrs["curve"] == "smooth"
+    # the tables are the CSV files' numbers (which keep 8 significant digits)
+    written = pd.read_csv(out / "passive.csv")
+    np.testing.assert_allclose(curve["static:foot"], written["static:foot"], rtol=1e-7)  # 8 digits
+    # ArviZ opens the same file with the group in it
+    assert "living" in arviz.from_netcdf(out / "posterior.nc").children
+
+
+def test_a_posterior_written_before_the_group_still_reports(ankle_run, tmp_path):
+    # older posterior.nc files kept the tables as JSON in the root attribute "inputs"
+    import json
+
+    from inertiafit.posterior import open_posterior
+    from inertiafit.processing.living import living_tables_from_tree
+
+    out, _ = ankle_run
+    tree = open_posterior(out / "posterior.nc").tree
+    now = living_tables_from_tree(tree)
+    old = tree.copy()
+    del old["living"]
+    inputs = json.loads(old.attrs["inputs"])
+    inputs["living"] = {k: v.to_dict(orient="list") for k, v in now.items()}
+    old.attrs["inputs"] = json.dumps(inputs)
+    before = living_tables_from_tree(old)
+    for name, table in now.items():
+        pd.testing.assert_frame_equal(before[name], table, check_dtype=False)
+    # negative control: a rigid tree has no living tables at all
+    del inputs["living"]
+    old.attrs["inputs"] = json.dumps(inputs)
+    assert living_tables_from_tree(old) == {}

@@ -22,7 +22,7 @@ from inertiafit.pipeline.fit import fit_result
 from inertiafit.pipeline.study import paper_baselines
 from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior, open_posterior
-from inertiafit.processing.living import living_tables_from_dict
+from inertiafit.processing.living import living_tables_from_tree
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
     EMG_TRACE_COLUMNS,
@@ -130,7 +130,7 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
         baselines=baselines,
         warnings=warnings,
         manifest=inputs.get("manifest", ""),
-        living=living_tables_from_dict(inputs.get("living", {})),
+        living=living_tables_from_tree(post.tree),
         emg_traces=emg_traces,
     )
 

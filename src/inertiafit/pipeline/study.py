@@ -36,7 +36,7 @@ from inertiafit.io.outputs import check_out, guard_outputs, holds_only, output_f
 from inertiafit.io.shipped import passive_prior_path
 from inertiafit.plotting.style import DEFAULT_FORMATS
 from inertiafit.posterior import Posterior, inputs_json
-from inertiafit.processing.living import living_tables
+from inertiafit.processing.living import LIVING_GROUP, living_datatree, living_tables
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
     ProcessedStudy,
@@ -206,9 +206,9 @@ def _sample_study(
         if processed.living is not None
         else {}
     )
-    if living:  # kept in posterior.nc, for `inertiafit report`
-        inputs["living"] = {k: v.to_dict(orient="list") for k, v in living.items()}
     post = fit(model, seed=seed, inputs=inputs, provenance=provenance)
+    if processed.living is not None:  # its own group of posterior.nc, for `inertiafit report`
+        post.tree[LIVING_GROUP] = living_datatree(living, processed.living)
     conflicts = evidence_conflicts(model, post, where=str(study.path))
     if conflicts:  # said in the study's warnings, and kept in posterior.nc with them
         processed.warnings.extend(conflicts)

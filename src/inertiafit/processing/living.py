@@ -53,13 +53,16 @@ at the middle of the swept range.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
 import scipy.linalg
+import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from inertiafit.errors import InputError
@@ -1565,6 +1568,104 @@ def living_tables_from_dict(stored: Mapping[str, Mapping[str, list]]) -> dict[st
         first = {"passive_parameters": PARAMETER_COLUMNS, "static_fit": FIT_POINT_COLUMNS}[name]
         out[name] = frame[[c for c in first if c in frame]]
     return out
+
+
+#: The living joint's group in ``posterior.nc`` and its children: the three tables of
+#: :func:`living_tables` (each a dimension ``row``, a variable per column) and the joint
+#: fit itself (``fit``: :func:`statics_dataset`).
+LIVING_GROUP = "living"
+_TABLE_GROUPS = {
+    "passive_parameters": "parameters",
+    "passive_curve": "curve",
+    "static_fit": "static_fit",
+}
+
+
+def statics_dataset(statics: LivingStatics) -> xr.Dataset:
+    """The joint fit as a Dataset: what :func:`living_tables` summarises, whole.
+
+    Dimensions ``coefficient`` (:attr:`LivingStatics.names`; ``coefficient_`` its copy for
+    the covariance), ``trial`` (the quasi-static and rest trials checked) and ``grid`` (the
+    smooth part's hyperparameter grid). Variables: ``mean`` and ``covariance`` of the
+    coefficients (N m, or N m per unit of their column); each trial's check, ``structure``,
+    ``noise`` (N m), ``flagged``, ``kind``; each posture's fitted ``rotation`` (deg; dim
+    ``posture``); and with a smooth part, the grid's ``amplitude`` (N m), ``length`` (deg)
+    and posterior ``weight``. Attributes: the swept device angles (deg) and whether the fit
+    settled and measured the living ``M_g``.
+    """
+    names = list(statics.names)
+    checks = list(statics.checks.values())
+    sources = [c.source for c in checks]
+    if statics.fit_points is not None:  # the files as trials.csv names them
+        named = list(dict.fromkeys(statics.fit_points["source"]))
+        sources = named if len(named) == len(sources) else sources
+    data: dict[str, Any] = {
+        "mean": ("coefficient", statics.coefficients, {"long_name": "coefficient's mean"}),
+        "covariance": (("coefficient", "coefficient_"), statics.covariance),
+        "structure": ("trial", [c.structure for c in checks], {"units": "N m"}),
+        "noise": ("trial", [c.noise for c in checks], {"units": "N m"}),
+        "flagged": ("trial", [int(c.flagged) for c in checks]),
+        "kind": ("trial", [c.kind for c in checks]),
+        "rotation": (
+            "posture",
+            [math.degrees(p.rotation) for p in statics.postures.values()],
+            {"units": "deg"},
+        ),
+    }
+    coords: dict[str, Any] = {
+        "coefficient": names,
+        "coefficient_": names,
+        "trial": sources,
+        "posture": list(statics.postures),
+    }
+    if statics.smooth is not None and statics.hyper_weights is not None:
+        grid = np.array(statics.smooth.grid, dtype=np.float64).reshape(-1, 2)
+        data["amplitude"] = ("grid", grid[:, 0], {"units": "N m"})
+        data["length"] = ("grid", np.degrees(grid[:, 1]), {"units": "deg"})
+        data["weight"] = ("grid", np.asarray(statics.hyper_weights, dtype=np.float64))
+    lo, hi = statics.angle_range
+    attrs = {
+        "angle_range_deg": [math.degrees(lo), math.degrees(hi)],
+        "converged": int(statics.converged),
+        "gravity_identified": int(statics.gravity_identified),
+        "curve": "smooth" if statics.smooth is not None else "fixed",
+    }
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def living_datatree(tables: Mapping[str, pd.DataFrame], statics: LivingStatics) -> xr.DataTree:
+    """The living joint's group of ``posterior.nc``: its tables and its fit.
+
+    ``xarray.open_datatree`` (and ArviZ, which reads the same tree) opens it as
+    ``tree["living"]``, with children ``parameters``, ``curve``, ``static_fit`` (a dimension
+    ``row``; :func:`living_tables_from_tree` gives the tables back) and ``fit``
+    (:func:`statics_dataset`).
+    """
+    children = {
+        group: xr.Dataset.from_dataframe(tables[name].reset_index(drop=True).rename_axis("row"))
+        for name, group in _TABLE_GROUPS.items()
+        if name in tables
+    }
+    children["fit"] = statics_dataset(statics)
+    return xr.DataTree.from_dict({f"/{k}": v for k, v in children.items()}, name=LIVING_GROUP)
+
+
+def living_tables_from_tree(tree: xr.DataTree) -> dict[str, pd.DataFrame]:
+    """:func:`living_tables` back from a ``posterior.nc`` tree (empty for a rigid study).
+
+    Reads the ``living`` group (:func:`living_datatree`); a file written before it existed
+    keeps its tables as JSON in the root attribute ``inputs`` (:func:`living_tables_from_dict`).
+    """
+    if LIVING_GROUP not in tree.children:
+        inputs = json.loads(tree.attrs.get("inputs", "{}") or "{}")
+        return living_tables_from_dict(inputs.get("living", {}))
+    group = tree[LIVING_GROUP]
+    out = {}
+    for name, child in _TABLE_GROUPS.items():
+        if child in group.children:
+            frame = group[child].to_dataset().to_dataframe().reset_index(drop=True)
+            out[name] = frame
+    return living_tables_from_dict({k: v.to_dict(orient="list") for k, v in out.items()})
 
 
 def _curve_order(columns: Iterable[str]) -> list[str]:
