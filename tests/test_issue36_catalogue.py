@@ -8,7 +8,11 @@ Cases answered in depth elsewhere are named here with the test that holds them:
   measured by a rigid sweep in that posture and said, naming the key
   (``test_living_shapes.py::test_a_rigid_sweep_measures_the_rotation_and_the_declared_one_is_checked``);
 - a stiffness prior written per degree: refused at reading with the value per radian
-  (``test_manifest_living.py``, case "stiffness per degree").
+  (``test_manifest_living.py``, case "stiffness per degree");
+- a manual window over the whole speed-up and slow-down, refused as "a stretch of constant
+  speed": taken (``test_plausibility.py::test_a_manual_window_over_the_whole_move_is_taken``);
+- one fast trial written with the other sign, told that flipping "would mix signs": told its
+  ``torque_sign`` (``test_diagnostics.py::test_one_file_written_with_the_other_sign_is_told_its_torque_sign``).
 """
 
 from __future__ import annotations
@@ -257,3 +261,20 @@ def test_joint_angle_at_zero_120_for_30_is_answered_or_said(tmp_path):
     assert len(said) >= 1
     assert "condition attachment: its own trials give I" in said[0]
     assert "joint_angle_at_zero" in said[0]
+
+
+def test_a_declared_posture_without_trials_is_said_not_reported(tmp_path):
+    # it was listed in passive_parameters.csv as "rotation 45 +- 0", as if measured
+    root = tmp_path / "study"
+    manifest = simulate_living_study(root, seed=36, postures="one", trials_per_speed=2)
+    text = manifest.read_text()
+    manifest.write_text(
+        text.replace("[defaults]", "[postures.lying]\ngravity_rotation = 45\n\n[defaults]", 1)
+    )
+    processed = process_study(load_study(manifest))
+    assert any("postures.lying: declared, but no trial is in it" in w for w in processed.warnings)
+    from inertiafit.processing.living import living_tables
+
+    table = living_tables(processed.living, processed.damping)["passive_parameters"]
+    assert "rotation:lying" not in set(table["parameter"])
+    assert "rotation:upright" in set(table["parameter"])  # the posture with trials stays

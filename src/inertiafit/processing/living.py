@@ -1736,8 +1736,9 @@ def living_tables(
             statics.basis.damping,
             "prior (no fast trials of the living body)",
         )
+    measured = {p for _, p in statics.setups}
     for name, posture in statics.postures.items():
-        if not name:  # a study without [postures]: one, unrotated
+        if not name or name not in measured:  # no [postures], or one without living trials
             continue
         key = f"rotation:{name}"
         sd = statics.value(key)[1] if key in statics.names else 0.0

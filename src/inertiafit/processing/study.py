@@ -593,6 +593,13 @@ def _process(
             statics = dataclasses.replace(statics, fit_points=points)
         _apply_checks(study, statics, data, rows, notes)
         _check_rotations(study, statics, postures, notes)
+        used = {spec.posture for spec, _ in data}
+        notes.extend(
+            f"{study.path}: postures.{name}: declared, but no trial is in it; its rotation is "
+            "neither measured nor used (add its trials, or remove it)"
+            for name in study.postures
+            if name not in used
+        )
         if statics.at_amplitude_edge() > SMOOTH_EDGE_WEIGHT:
             notes.append(
                 f"{study.path}: the passive curve's smooth part took the largest amplitude its "
