@@ -267,19 +267,38 @@ def test_every_fast_trial_negative_is_told_its_torque_sign(base, tmp_path):  # n
     assert (table.loc[FASTS, "inertia"] < -0.38).all()
 
 
-def test_one_negative_trial_among_positive_ones_is_not_told_to_flip(base, tmp_path):  # noqa: F811
-    # "set torque_sign = -1" there gave mixed signs within one condition, accepted silently
+def test_one_file_written_with_the_other_sign_is_told_its_torque_sign(base, tmp_path):  # noqa: F811
+    # issue 36: it was told that flipping "would mix signs", though its own torque_sign = -1
+    # is the fix: its cruise follows the gravity model negated (slope -1), its siblings are
+    # positive
     manifest = copy_of(base, tmp_path)
     flip(manifest, [FASTS[0]])
     _, table = refused_run(
         manifest,
         tmp_path / "out",
-        NEGATIVE + r"2 other fast trials of condition 'attachment' give 0\.203 to 0\.205 kg "
-        r"m\^2 with the same torque_sign, so flipping its sign would mix signs within the "
-        r"condition; check this trial's columns, window and recording",
+        NEGATIVE + r"its torque at constant speed follows the condition's gravity model negated "
+        r"\(slope -1\.?\d*\) where its other fast trials are positive: this file's torque is "
+        r"written with the other sign; torque sign: set torque_sign = -1 for this trial in the "
+        r"manifest",
     )
     assert list(table.status) == ["ok", "refused", "ok", "ok"]
     assert list(table.loc[FASTS, "inertia"].round(2)) == [-0.4, 0.2, 0.2]
+    # following the advice gives the trial its siblings' inertia
+    text = manifest.read_text()
+    start = text.index(f'file = "{FASTS[0]}"')
+    manifest.write_text(text[:start] + text[start:].replace("\n", "\ntorque_sign = -1\n", 1))
+    processed = process_study(manifest)
+    assert processed.trials.set_index("file").loc[FASTS[0], "inertia"] == pytest.approx(
+        0.204, abs=0.003
+    )
+
+
+def test_a_negative_trial_without_a_cruise_is_not_told_to_flip():
+    # no cruise compared with the gravity model (slope unknown): "mix signs", not a flip
+    trials = [(1, estimate(-0.39), None), (1, estimate(0.20), 0.99), (1, estimate(0.21), 1.0)]
+    verdict = inertia_sign_checks(trials, "attachment")[0]
+    assert verdict is not None
+    assert "flipping its sign would mix signs within the condition" in verdict.error
 
 
 def estimate(inertia: float, se: float = 0.01) -> InertiaEstimate:

@@ -83,6 +83,15 @@ def test_a_manual_window_at_constant_speed_is_refused(base, tmp_path):
         process_study(study(base, tmp_path, "window = [0.40, 0.52]"))
 
 
+def test_a_manual_window_over_the_whole_move_is_taken(base, tmp_path):
+    # issue 36: refused as "a stretch of constant speed" because its two ends are both at rest;
+    # it holds the speed-up and the slow-down, and gives the inertia of the automatic window
+    auto = process_study(study(base, tmp_path / "auto")).trials.set_index("file")
+    whole = process_study(study(base, tmp_path, "window = [0.18, 0.72]")).trials.set_index("file")
+    assert whole.loc[FAST, "inertia"] == pytest.approx(auto.loc[FAST, "inertia"], rel=0.03)
+    assert "window:" not in whole.loc[FAST, "flags"]
+
+
 def test_a_manual_window_catching_little_of_the_ramp_is_flagged(base, tmp_path):
     processed = process_study(study(base, tmp_path, "window = [0.30, 0.40]"))
     assert "window: the manual window [0.3, 0.4] s changes the speed by only 1" in flags_of(

@@ -123,7 +123,10 @@ def fast_trial_flags(
     if window is not None and plateau > 0:
         i0, i1 = np.searchsorted(time, [estimate.window_start, estimate.window_end])
         i1 = min(int(i1), time.size - 1)
-        change = abs(float(v[i1]) - float(v[int(i0)])) / plateau
+        # the speed's range over the window, not its ends' difference: a window over the whole
+        # speed-up and slow-down starts and ends at rest, and holds every acceleration
+        inside = np.asarray(v[int(i0) : i1 + 1], dtype=np.float64)
+        change = float(np.ptp(inside)) / plateau if inside.size else 0.0
         where = f"[{estimate.window_start:.4g}, {estimate.window_end:.4g}] s"
         if change < WINDOW_SPEED_CHANGE_MIN:
             raise InputError(
@@ -383,8 +386,10 @@ def inertia_sign_checks(
     blamed, naming the slope), and following the advice leaves the condition of one sign —
     every fast trial negative (with a slope near +1 the quasi-static trials agree with them, so
     the whole condition is flipped), or this trial's ``torque_sign`` other than that of every
-    positive sibling. Otherwise the line says that flipping would mix signs, with the
-    siblings' range.
+    positive sibling, or this trial's cruise following the gravity model negated while its
+    siblings are positive (one file written with the other sign: its own ``torque_sign`` is
+    the fix). Otherwise (no cruise to compare) the line says that flipping would mix signs,
+    with the siblings' range.
     """
     positive = [(sign, est) for sign, est, _ in trials if est.inertia >= 0]
     out: list[SignVerdict | None] = []
@@ -416,6 +421,12 @@ def inertia_sign_checks(
             advice = (
                 f"its torque_sign differs from that of the condition's positive fast trials: "
                 f"{torque_sign_hint(sign)}"
+            )
+        elif sign != "motion" and slope is not None and slope < 0:
+            advice = (
+                f"its torque at constant speed follows the condition's gravity model negated "
+                f"(slope {slope:.2g}) where its other fast trials are positive: this file's "
+                f"torque is written with the other sign; {torque_sign_hint(sign)}"
             )
         else:
             values = [e.inertia for _, e in positive]
