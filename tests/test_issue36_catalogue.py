@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from test_cli_arguments import run_cli
 from test_issue22_catalogue import copy_of, refused, run_refused
 
 from inertiafit.cli import main
@@ -278,3 +279,62 @@ def test_a_declared_posture_without_trials_is_said_not_reported(tmp_path):
     table = living_tables(processed.living, processed.damping)["passive_parameters"]
     assert "rotation:lying" not in set(table["parameter"])
     assert "rotation:upright" in set(table["parameter"])  # the posture with trials stays
+
+
+def test_a_contradiction_far_past_the_evidence_is_measured_in_its_ses():
+    # One body in two conditions whose inertias differ by 0.1 kg m^2 at SEs of 0.001: the
+    # joint posterior sits between, each condition ~50 of its SEs away (past the refusal
+    # limit); 0.002 apart (negative control) is within the warning limit.
+    from inertiafit.inference.fit import fit
+    from inertiafit.inference.model import Condition, Model
+    from inertiafit.inference.observations import Observation
+    from inertiafit.inference.priors import load_prior
+    from inertiafit.pipeline.study import CONFLICT_REFUSE_SD, CONFLICT_SD, evidence_conflicts
+
+    def conflicts(second: float):
+        model = Model(
+            {"d": load_prior("disk-3kg")},
+            [
+                Condition(
+                    ("d",),
+                    Observation.from_mean_se(i, 0.001),
+                    Observation.from_mean_se(12.8, 0.05),
+                    label=label,
+                )
+                for label, i in (("one", 0.594), ("two", second))
+            ],
+        )
+        return evidence_conflicts(model, fit(model, seed=0), where="study.toml")
+
+    far = conflicts(0.694)
+    assert {c.condition for c in far} == {"one", "two"}
+    assert all(CONFLICT_REFUSE_SD < c.apart < 60 for c in far)
+    assert far[0].line.startswith("study.toml: condition one: its own trials give I = 0.594")
+    assert all(c.apart < CONFLICT_SD for c in conflicts(0.596)) or not conflicts(0.596)
+
+
+def test_a_contradiction_past_the_limit_refuses_the_study_with_its_table(tmp_path, monkeypatch):
+    # the refusal's wiring: the worst conflict's condition marked in diagnostics.csv
+    from cases import one_condition_study
+
+    from inertiafit.pipeline import study as pipeline_study
+
+    manifest = one_condition_study(tmp_path / "s") / "study.toml"
+    line = "study.toml: condition attachment: its own trials give I = 0.3 (41 of its SEs apart): "
+    monkeypatch.setattr(
+        pipeline_study,
+        "evidence_conflicts",
+        lambda *a, **k: [
+            pipeline_study.Conflict(line + pipeline_study.CONFLICT_ADVICE, "attachment", 41.0)
+        ],
+    )
+    code, err = run_cli(["run", str(manifest), "--out", str(tmp_path / "out")])
+    assert code == 2
+    assert err.splitlines()[-1] == (
+        "inertiafit: error: " + line + "refused: past 30 SEs no interval of this posterior "
+        "holds; check the keys that link the conditions (joint_angle_at_zero, "
+        "gravity_rotation, the passive priors' units, torque_sign)"
+    )
+    table = pd.read_csv(tmp_path / "out" / "diagnostics.csv")
+    fast = table[table["kind"] == "fast"]
+    assert (fast["status"] == "refused").all()

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -210,6 +211,20 @@ def _sample_study(
     if processed.living is not None:  # its own group of posterior.nc, for `inertiafit report`
         post.tree[LIVING_GROUP] = living_datatree(living, processed.living)
     conflicts = evidence_conflicts(model, post, where=str(study.path))
+    worst = max(conflicts, key=lambda c: c.apart, default=None)
+    if worst is not None and worst.apart > CONFLICT_REFUSE_SD:
+        refused = {
+            str(f): worst.line
+            for f in processed.trials.loc[processed.trials["condition"] == worst.condition, "file"]
+        }
+        raise StudyRefused(
+            f"{worst.line.removesuffix(CONFLICT_ADVICE)}refused: past {CONFLICT_REFUSE_SD:g} "
+            "SEs no interval of this posterior holds; check the keys that link the conditions "
+            "(joint_angle_at_zero, gravity_rotation, the passive priors' units, torque_sign)",
+            refused=refused,
+            table=processed.diagnostics(refused),
+        )
+    conflicts = [c.line for c in conflicts]
     if conflicts:  # said in the study's warnings, and kept in posterior.nc with them
         processed.warnings.extend(conflicts)
         post.tree.attrs["inputs"] = inputs_json(inputs)
@@ -218,9 +233,32 @@ def _sample_study(
 
 #: A condition's own evidence this many of its SEs from the joint posterior is said.
 CONFLICT_SD = 5.0
+#: ... and this many refuses the study, with the per-trial table (issue 36, item 1): beyond
+#: any tail of its Student-t (with 2 degrees of freedom, 30 scales out has probability 1e-3;
+#: with 4, 7e-6), the conditions measured different bodies. The issue's slips gave 60-120.
+CONFLICT_REFUSE_SD = 30.0
+#: How a conflict's line ends: what to check.
+CONFLICT_ADVICE = (
+    "the conditions do not describe the same bodies; check the keys that link them "
+    "(joint_angle_at_zero, gravity_rotation, the passive priors' units, torque_sign) before "
+    "trusting the intervals"
+)
 
 
-def evidence_conflicts(model: Model, post: Posterior, *, where: str) -> list[str]:
+@dataclass(frozen=True)
+class Conflict:
+    """A condition whose own evidence contradicts the joint posterior.
+
+    ``line``: the warning; ``condition`` its label; ``apart``: how many of the evidence's own
+    SEs separate it from the posterior.
+    """
+
+    line: str
+    condition: str
+    apart: float
+
+
+def evidence_conflicts(model: Model, post: Posterior, *, where: str) -> list[Conflict]:
     """Conditions whose own trials contradict the joint posterior (issue 36, item 1).
 
     Each plain condition's evidence (its fast trials' mean ``I``, its ``M_g``) against the
@@ -229,7 +267,8 @@ def evidence_conflicts(model: Model, post: Posterior, *, where: str) -> list[str
     describe the same bodies — a slip in a key that links them (a living joint's
     ``joint_angle_at_zero``, a posture's ``gravity_rotation``, a stiffness prior, a trial's
     ``torque_sign``) — and a line says so, naming them. The posterior is then a compromise
-    that fits no condition: its narrow intervals are not to be trusted.
+    that fits no condition: its narrow intervals are not to be trusted. Past
+    :data:`CONFLICT_REFUSE_SD` the study is refused (:func:`analyse_study`).
     """
     lines = []
     for cond in model.conditions:
@@ -239,20 +278,22 @@ def evidence_conflicts(model: Model, post: Posterior, *, where: str) -> list[str
             if obs is None:
                 continue
             total = sum(post.draws(b, quantity).ravel() for b in cond.mounting.bodies)
-            spread = obs.scale**2 * (obs.df / (obs.df - 2) if obs.df > 2 else 3.0)
+            # a Student-t's variance; a Gaussian's (df = inf) is its scale's square, where
+            # inf / (inf - 2) was nan and hid every conflict of an M_g or a one-trial I
+            factor = 1.0 if math.isinf(obs.df) else obs.df / (obs.df - 2) if obs.df > 2 else 3.0
+            spread = obs.scale**2 * factor
             # the condition's own error alone: its data are in the posterior already
             sd = math.sqrt(spread + obs.shared_sd**2)
             off = (obs.center - float(np.mean(total))) / sd if sd > 0 else 0.0
             if abs(off) <= CONFLICT_SD:
                 continue
             symbol = "I" if quantity == "inertia" else "M_g"
-            lines.append(
+            line = (
                 f"{where}: condition {cond.label}: its own trials give {symbol} = "
                 f"{obs.center:.4g}, the joint posterior {float(np.mean(total)):.4g} "
-                f"({abs(off):.0f} of its SEs apart): the conditions do not describe the same bodies; "
-                "check the keys that link them (joint_angle_at_zero, gravity_rotation, the "
-                "passive priors' units, torque_sign) before trusting the intervals"
+                f"({abs(off):.0f} of its SEs apart): {CONFLICT_ADVICE}"
             )
+            lines.append(Conflict(line, cond.label, abs(off)))
     return lines
 
 
