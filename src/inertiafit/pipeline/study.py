@@ -224,9 +224,8 @@ def _sample_study(
             refused=refused,
             table=processed.diagnostics(refused),
         )
-    conflicts = [c.line for c in conflicts]
     if conflicts:  # said in the study's warnings, and kept in posterior.nc with them
-        processed.warnings.extend(conflicts)
+        processed.warnings.extend(c.line for c in conflicts)
         post.tree.attrs["inputs"] = inputs_json(inputs)
     return study, priors, ideals, processed, living, post
 
