@@ -338,3 +338,20 @@ def test_a_contradiction_past_the_limit_refuses_the_study_with_its_table(tmp_pat
     table = pd.read_csv(tmp_path / "out" / "diagnostics.csv")
     fast = table[table["kind"] == "fast"]
     assert (fast["status"] == "refused").all()
+
+
+def test_a_long_condition_label_names_its_figures_within_the_limit():
+    # four bodies of 64-character names made a 270-byte file name and crashed after sampling
+    from inertiafit.report.figures import MAX_STEM_BYTES, FigureRecord, safe_stem
+
+    label = "+".join(f"{k}" * 64 for k in "abcd")
+    record = FigureRecord(f"fast-trials-{label}", lambda: None, "Trials", "caption")
+    assert len(record.stem.encode()) <= MAX_STEM_BYTES
+    assert record.stem.startswith("fast-trials-aaaa")
+    other = FigureRecord(f"fast-trials-{label[:-1]}e", lambda: None, "Trials", "caption")
+    assert other.stem != record.stem  # the hash keeps two long labels apart
+    assert safe_stem(record.stem) == record.stem  # stable
+    emoji = safe_stem("corner-" + "\U0001f600" * 64)  # cut on a whole character
+    assert len(emoji.encode()) <= MAX_STEM_BYTES
+    assert set(emoji.removeprefix("corner-").rsplit("-", 1)[0]) == {"\U0001f600"}
+    assert safe_stem("corner-attachment") == "corner-attachment"  # short ones as they were

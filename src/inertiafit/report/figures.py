@@ -11,6 +11,7 @@ a plot function in :mod:`inertiafit.report.plots` and one record here.
 from __future__ import annotations
 
 import functools
+import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -29,6 +30,24 @@ FIGURE_SECTIONS = (
     "Trials",
     "Diagnostics",
 )
+#: Longest figure stem (UTF-8 bytes): file systems take 255 bytes per name, and the stem gains
+#: an extension and, while written, a staging prefix. A condition of four bodies with
+#: 64-character names made a 270-byte ``fast-trials-...`` and crashed after sampling.
+MAX_STEM_BYTES = 150
+
+
+def safe_stem(stem: str) -> str:
+    """``stem`` itself, or cut to :data:`MAX_STEM_BYTES` with a hash of the whole.
+
+    The cut keeps whole characters and ends in ``-`` and the first 10 hex digits of the full
+    stem's SHA-256, so two long names stay apart and the same name always gives the same file.
+    """
+    raw = stem.encode("utf-8")
+    if len(raw) <= MAX_STEM_BYTES:
+        return stem
+    digest = hashlib.sha256(raw).hexdigest()[:10]
+    head = raw[: MAX_STEM_BYTES - len(digest) - 1].decode("utf-8", errors="ignore")
+    return f"{head}-{digest}"
 
 
 @dataclass(frozen=True)
@@ -38,7 +57,8 @@ class FigureRecord:
     Attributes
     ----------
     stem : str
-        File name without extension (``corner-attachment`` -> ``corner-attachment.png``).
+        File name without extension (``corner-attachment`` -> ``corner-attachment.png``);
+        one longer than :data:`MAX_STEM_BYTES` is cut (:func:`safe_stem`).
     make : callable
         Draws the figure and returns a new :class:`matplotlib.figure.Figure`.
     section : str
@@ -56,6 +76,7 @@ class FigureRecord:
     formats: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "stem", safe_stem(self.stem))
         if self.section not in FIGURE_SECTIONS:
             msg = f"figure {self.stem!r}: section {self.section!r} is not one of {FIGURE_SECTIONS}"
             raise ValueError(msg)
