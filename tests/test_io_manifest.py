@@ -395,7 +395,8 @@ def test_bad_data_reaches_the_user_with_the_trial_file_named(study_dir):
     ("name", "expected"),
     [
         ("a/b", r"no '/' in a name"),
-        ("x" * 300, r"at most 64 characters \(it names output files\), got 300"),
+        ("x" * 300, r"at most 64 bytes in UTF-8 \(it names output files\), got 300 \(300 "),
+        ("\U0001f600" * 64, r"at most 64 bytes in UTF-8 \(it names output files\), got 256 \(64 "),
         ("a\x00b", r"no '\\x00' in a name"),
         (".hidden", r"does not start with '\.'"),
         ("arm+hand", r"no '\+' in a name"),

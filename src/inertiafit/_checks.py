@@ -20,8 +20,10 @@ from pathlib import Path
 from inertiafit.errors import InputError
 
 __all__ = [
+    "GRAVITY_RANGE",
     "SEED_MAX",
     "check_finite",
+    "check_gravity",
     "check_increasing_pair",
     "check_interval",
     "check_non_negative",
@@ -35,6 +37,11 @@ __all__ = [
 
 #: Largest seed NumPy's legacy seeding (and so every seed of the library) accepts.
 SEED_MAX = 2**32 - 1
+
+#: Gravitational accelerations accepted (m/s^2): Earth's surface gravity is 9.78 (equator) to
+#: 9.83 (poles), a little less on mountains; anything outside is a typo or a unit mix-up
+#: (981 cm/s^2, 32.2 ft/s^2) that would otherwise surface as trials "outside the priors".
+GRAVITY_RANGE = (9.7, 9.9)
 
 
 def _unit(unit: str) -> str:
@@ -216,3 +223,14 @@ def check_seed(value: object, where: str = "seed") -> int:
     if not ok or not 0 <= int(value) <= SEED_MAX:  # type: ignore[call-overload]
         raise InputError(f"{where}: expected a whole number from 0 to {SEED_MAX}, got {value!r}")
     return int(value)  # type: ignore[call-overload]
+
+
+def check_gravity(value: object, where: str = "gravity") -> float:
+    """A gravitational acceleration in m/s^2: a positive number within :data:`GRAVITY_RANGE`."""
+    out = check_positive(value, where, "m/s^2")
+    low, high = GRAVITY_RANGE
+    if not low <= out <= high:
+        raise InputError(
+            f"{where}: expected Earth's surface gravity, {low:g} to {high:g} m/s^2, got {value!r}"
+        )
+    return out

@@ -23,7 +23,7 @@ import numpy as np
 from inertiafit._checks import check_positive
 from inertiafit.errors import InputError, StudyRefused
 from inertiafit.inference.model import Condition, Model, observable_ranges
-from inertiafit.inference.observations import Observation
+from inertiafit.inference.observations import Observation, check_resolvable
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.measured import measured_quantity
 from inertiafit.stats import shared_error
@@ -280,9 +280,11 @@ def evidence_from_numbers(
     values : float or sequence of float
         Trial values, or one value with ``se`` or with ``sd`` and ``n``.
     se : float, optional
-        Standard error of a single value (Gaussian).
+        Standard error of a single value (Gaussian); at least
+        :data:`~inertiafit.inference.observations.MIN_RELATIVE_SE` of the value.
     sd, n : float, int, optional
-        SD and number of the trials behind one mean (the same Student-t as the trials).
+        SD and number of the trials behind one mean (the same Student-t as the trials); the SD
+        at least ``MIN_RELATIVE_SE`` of the mean.
     """
     if values is None or isinstance(values, str | bytes):  # type: ignore[redundant-expr]
         raise InputError(f"{name}: expected a number or a sequence of numbers, got {values!r}")
@@ -304,8 +306,13 @@ def evidence_from_numbers(
             raise InputError(f"{name}_sd and {name}_n go together; give both")
         if len(vals) != 1 or se is not None:
             raise InputError(f"{name}_sd and {name}_n describe one mean; give one {name} value")
-        return Observation.from_mean_sd(vals[0], sd, n, where=name)
-    return Observation.from_values(vals, se=se, where=name)
+        obs = Observation.from_mean_sd(vals[0], sd, n, where=name)
+        check_resolvable(sd, obs.center, f"{name}_sd")
+        return obs
+    obs = Observation.from_values(vals, se=se, where=name)
+    if se is not None:
+        check_resolvable(se, obs.center, f"{name}_se")
+    return obs
 
 
 def measured_from_numbers(
@@ -315,7 +322,8 @@ def measured_from_numbers(
 
     A pair of ``None`` is left out; a value without its SD (or an SD without its value) is an
     error naming ``name`` and ``name_sd`` (the arguments of
-    :func:`~inertiafit.inference.fit.fit_body`).
+    :func:`~inertiafit.inference.fit.fit_body`), and so is an SD below
+    :data:`~inertiafit.inference.observations.MIN_RELATIVE_SE` of its value.
     """
     out = {}
     for name, (value, sd) in given.items():
@@ -327,4 +335,5 @@ def measured_from_numbers(
         if value is None:
             raise InputError(f"{name}_sd: needs the value {name} too")
         out[name] = Observation.from_mean_se(value, check_positive(sd, f"{name}_sd"), where=name)
+        check_resolvable(sd, out[name].center, f"{name}_sd")
     return out

@@ -34,7 +34,42 @@ from inertiafit._checks import (
 from inertiafit.errors import InputError
 from inertiafit.stats import SmearedStudentT
 
-__all__ = ["Observation"]
+__all__ = ["MIN_RELATIVE_SE", "Observation", "check_resolvable"]
+
+#: Smallest standard error (or SD) of a reported value accepted, as a fraction of the value.
+#: No moment is measured to nine digits; far below that the posterior's spread nears float64's
+#: resolution (1e-16 of the value: every draw equal, R-hat 0/0), and an SE of 1e-300 overflows
+#: the Gaussian's exponent ((mu - value) / se)^2 over the prior boxes: no density is finite.
+MIN_RELATIVE_SE = 1e-9
+
+
+def check_resolvable(spread: float, value: float, where: str) -> float:
+    """``spread`` (a standard error or SD of ``value``) if it is no less than that value allows.
+
+    At least :data:`MIN_RELATIVE_SE` of ``|value|``.
+
+    Parameters
+    ----------
+    spread : float
+        The standard error or SD (positive, checked already).
+    value : float
+        The value it belongs to.
+    where : str
+        The argument's name, which starts the message (``inertia_se``).
+
+    Raises
+    ------
+    InputError
+        One line naming ``where``, the least SE accepted and the value given.
+    """
+    floor = MIN_RELATIVE_SE * abs(value)
+    if not spread >= floor:
+        raise InputError(
+            f"{where}: expected at least {floor:.3g} ({MIN_RELATIVE_SE:g} of the value "
+            f"{value:.6g}), got {spread:.3g}: no measurement is that precise, and the "
+            "posterior density cannot be evaluated"
+        )
+    return spread
 
 
 @functools.lru_cache(maxsize=256)

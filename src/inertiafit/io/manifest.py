@@ -3,7 +3,7 @@
 ::
 
     name = "Elbow attachment with 3 kg disk"
-    gravity = 9.81                      # optional (m/s^2)
+    gravity = 9.81                      # optional (m/s^2, 9.7 to 9.9)
     on_trial_error = "stop"             # optional; "skip" drops a bad trial, loudly
     [bodies.attachment]
     prior = "biodex-elbow-attachment"   # a prior name, a path, or an inline table
@@ -104,6 +104,7 @@ import xarray as xr
 
 from inertiafit._checks import (
     check_finite,
+    check_gravity,
     check_increasing_pair,
     check_interval,
     check_path,
@@ -483,7 +484,8 @@ class Study:
     base_dir : Path
         Directory that relative trial paths are resolved against (the manifest's).
     gravity : float
-        Gravitational acceleration (m/s^2), default 9.81.
+        Gravitational acceleration (m/s^2), default 9.81; 9.7 to 9.9
+        (:data:`~inertiafit._checks.GRAVITY_RANGE`).
     bodies : dict of str to BodySpec
         In manifest order.
     trials : list of TrialSpec
@@ -816,7 +818,7 @@ def load_study(path: str | Path) -> Study:
     description = doc.get("description", "")
     if not isinstance(description, str):
         raise _fail(f"{where}: description", f"expected a string, got {description!r}")
-    gravity = check_positive(doc.get("gravity", GRAVITY), f"{where}: gravity", "m/s^2")
+    gravity = check_gravity(doc.get("gravity", GRAVITY), f"{where}: gravity")
     on_trial_error = doc.get("on_trial_error", "stop")
     if on_trial_error not in ON_TRIAL_ERROR:
         raise _fail(
@@ -959,7 +961,8 @@ def _check_mvc(trials: list[TrialSpec], emg_table: object, *, where: str) -> Non
             )
 
 
-#: Longest body name: it becomes part of file names (``corner-<body>.pdf``) and condition labels.
+#: Longest body name, in UTF-8 bytes: it becomes part of file names (``corner-<body>.pdf``)
+#: and condition labels, and file systems count bytes (64 emoji are 256).
 MAX_BODY_NAME = 64
 #: Characters a body name may not hold: path separators and what Windows refuses in a file
 #: name, and ``+``/``@``, which join bodies and offsets in a condition's label.
@@ -972,8 +975,12 @@ def _check_name(name: str, where: str, what: str = "body") -> None:
     bad = sorted({c for c in name if c in _BODY_NAME_FORBIDDEN or not c.isprintable()})
     if not name.strip() or name != name.strip() or name.startswith("."):
         why = "a name that does not start with '.' or a space and is not empty"
-    elif len(name) > MAX_BODY_NAME:
-        why = f"at most {MAX_BODY_NAME} characters (it names output files), got {len(name)}"
+    elif len(name.encode("utf-8")) > MAX_BODY_NAME:
+        size = len(name.encode("utf-8"))
+        why = (
+            f"at most {MAX_BODY_NAME} bytes in UTF-8 (it names output files), got {size} "
+            f"({len(name)} characters)"
+        )
     elif bad:
         listed = " ".join(repr(c) for c in bad)
         why = f"no {listed} in a name (it names output files and condition labels)"

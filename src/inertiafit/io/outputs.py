@@ -10,7 +10,8 @@ The rules of an output folder (``--out``), which every command that writes one f
   folder is replaced only when it is empty, or when every entry in it is listed, with its size,
   in its marker file :data:`MARKER`, which inertiafit writes into every output folder. A file
   someone added or changed, or a folder of an older inertiafit whose marker lists nothing, is
-  refused with one line naming it.
+  refused with one line naming it. A subfolder that is an output folder of its own (``export
+  --out <results>/exp``) is inertiafit's too when it passes the same check by its own marker.
 - **One run at a time per folder**: the check claims ``out`` with a lock file beside it,
   ``.<name>.lock``, holding the process id and host of the run; another run is refused while
   it is held. A lock left by a process that has died on this host is taken over. The claim is
@@ -22,7 +23,9 @@ The rules of an output folder (``--out``), which every command that writes one f
   at ``out``; an old folder that cannot be removed afterwards (a read-only subfolder) is left
   aside with a one-line warning, and the new outputs stay.
 - **Nothing partial is left behind**: a staging folder is removed on any error, on Ctrl-C and
-  on SIGTERM (which ends the command as an error does while it runs).
+  on SIGTERM (which ends the command as an error does while it runs). One left by a run that
+  was killed outright (SIGKILL, a power cut) is removed, with a warning naming it, by the next
+  run that claims the same folder: holding the lock, no live run can be writing it.
 
 :func:`replace_files` (``inertiafit report``) redraws files of an existing folder with the same
 swap: the folder is copied, the new files replace their namesakes in the copy, and the copy
@@ -35,6 +38,7 @@ import atexit
 import functools
 import json
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -140,7 +144,9 @@ def check_replaceable(out: str | Path) -> None:
 
     A folder may be replaced when it does not exist, is empty, or every entry in it is listed,
     with its present size, in its marker :data:`MARKER`. A folder whose marker lists nothing
-    (written by an older inertiafit) is refused: what else it holds cannot be told.
+    (written by an older inertiafit) is refused: what else it holds cannot be told. A subfolder
+    the marker does not list but that holds a marker of its own (an ``export --out
+    <results>/exp``) is inertiafit's when it passes this same check; it is replaced with the rest.
 
     Raises
     ------
@@ -166,12 +172,19 @@ def check_replaceable(out: str | Path) -> None:
             f"out: folder {out} was written by an older inertiafit that did not list its files, "
             "so it may hold files of yours; delete it yourself or choose a new folder"
         )
+    nested: list[str] = []  # unlisted subfolders that are output folders of their own
     for entry, size in sorted(present.items()):
+        if any(entry.startswith(folder) for folder in nested):
+            continue
         if entry not in listed:
             parts = entry.split("/")
             tops = ["/".join(parts[:i]) + "/" for i in range(1, len(parts))]
             # a whole folder of someone else's is named as such
             foreign = [t for t in tops if not any(name.startswith(t) for name in listed)]
+            if foreign and (out / foreign[0] / MARKER).is_file():
+                check_replaceable(out / foreign[0])  # names what in it is not inertiafit's
+                nested.append(foreign[0])
+                continue
             raise InputError(
                 f"out: folder {out} holds {(foreign or [entry])[0]}, which inertiafit did not "
                 "write; move it out of the folder or choose a new folder"
@@ -385,8 +398,46 @@ def _claim(out: str | Path, target: Path, label: str = "out: ") -> None:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(token)
         _CLAIMS[target] = _Claim(lock, token, made)
+        _remove_leftovers(target)
         return
     raise _held(out, lock, "", label)
+
+
+def _leftovers(target: Path) -> list[Path]:
+    """The staging folders of ``target`` beside it, by the names :func:`_staging` gives them.
+
+    Only real folders named ``.<name>.new-XXXXXXXX`` or ``.<name>.draw-XXXXXXXX`` (eight of
+    ``mkdtemp``'s characters); never a folder moved aside by a swap (``.old-``), which may hold
+    the only copy of the old outputs.
+    """
+    pattern = re.compile(rf"\.{re.escape(target.name)}\.(?:new|draw)-[a-z0-9_]{{8}}")
+    try:
+        entries = list(target.parent.iterdir())
+    except OSError:
+        return []
+    return sorted(
+        path
+        for path in entries
+        if pattern.fullmatch(path.name) and path.is_dir() and not path.is_symlink()
+    )
+
+
+def _remove_leftovers(target: Path) -> None:
+    """Remove the staging folders of ``target`` left by runs killed outright, each named.
+
+    Called with ``target``'s lock just taken: every run writes its staging folder only while it
+    holds the lock and removes it before letting go, so one found now belongs to no live run.
+    """
+    for path in _leftovers(target):
+        try:
+            shutil.rmtree(path)
+        except OSError as exc:
+            _warn(
+                f"{path} is left from a run into {target} that was killed, and could not be "
+                f"removed ({exc.strerror or exc}); delete that folder yourself"
+            )
+        else:
+            _warn(f"removed {path}, left unfinished by a run into {target} that was killed")
 
 
 def _release(target: Path, *, written: bool = False) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inertiafit._checks import check_positive, check_probability, check_seed
+from inertiafit._checks import check_gravity, check_probability, check_seed
 from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.inference.fit import fit_body
@@ -112,7 +112,7 @@ def run_fit(
     check_seed(seed)
     fmts = check_formats(formats)
     check_probability(hdi_prob, "hdi_prob")
-    check_positive(gravity, "gravity", "m/s^2")
+    check_gravity(gravity)
     check_out(out, inputs=[prior.path if isinstance(prior, Prior) else prior])
     prior_obj = load_prior(prior)
     # The figure workers start now and ready matplotlib while the posterior is sampled.
