@@ -355,3 +355,32 @@ def test_a_long_condition_label_names_its_figures_within_the_limit():
     assert len(emoji.encode()) <= MAX_STEM_BYTES
     assert set(emoji.removeprefix("corner-").rsplit("-", 1)[0]) == {"\U0001f600"}
     assert safe_stem("corner-attachment") == "corner-attachment"  # short ones as they were
+
+
+def test_a_full_disk_is_one_line_and_loses_nothing(tmp_path, monkeypatch):
+    # it was an OSError traceback; the earlier outputs stay as they were
+    import errno
+
+    from cases import one_condition_study
+    from test_outputs_safety import snapshot
+
+    from inertiafit.report import outputs as outputs_module
+
+    manifest = one_condition_study(tmp_path / "s") / "study.toml"
+    out = tmp_path / "out"
+    assert main(["run", str(manifest), "--out", str(out)]) == 0
+    before = snapshot(tmp_path)
+
+    def full(folder, *_a, **_k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(folder / "summary.csv"))
+
+    monkeypatch.setattr(outputs_module, "write_tables", full)
+    code, err = run_cli(["run", str(manifest), "--out", str(out)])
+    assert code == 1
+    assert err.splitlines()[-1].startswith("inertiafit: error: ")
+    assert err.splitlines()[-1].endswith(
+        "summary.csv: No space left on device; nothing was replaced (an output folder is "
+        "swapped in only once complete); free some space and run again"
+    )
+    assert "Traceback" not in err
+    assert snapshot(tmp_path) == before  # the staging folder gone, the outputs as they were

@@ -11,6 +11,7 @@ others). The library checks the values; bad input ends with one line on stderr
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import re
@@ -747,6 +748,15 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:  # the reader of stdout went away (``| head``): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as exc:  # the machine's, not the input's: a full disk, a lost mount
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(
+            f"inertiafit: error: {where}{exc.strerror or exc}; nothing was replaced (an output "
+            "folder is swapped in only once complete)"
+            + ("; free some space and run again" if exc.errno == errno.ENOSPC else ""),
+            file=sys.stderr,
+        )
         return 1
 
 
