@@ -133,6 +133,13 @@ _UNIT_WIDTH_VALUES, _UNIT_WIDTH_INDEX = np.unique(_UNIT_WIDTHS, return_inverse=T
 #: Rows of ``(a, b)`` handled at once on the angle grid (bounds the memory of one call).
 _ROWS_PER_BLOCK = 512
 
+#: Largest size of a sampled coordinate (``log a``, ``log b``, ``log gain``) with any density:
+#: e^50 = 5e21 is far beyond any body's ``a`` (kg m) or ``b`` (kg m^2), and any torque gain, on
+#: either side, and within it the model's exponentials, squares and ratios stay finite. The
+#: Student-t proposal of a condition with two fast trials (one degree of freedom, a Cauchy)
+#: reaches 2e4, whose ``exp`` overflowed with a RuntimeWarning.
+_MAX_COORDINATE = 50.0
+
 
 class _Cells:
     """The cells of one block of angle grids: their edges, made only when asked.
@@ -1133,9 +1140,16 @@ class Model:
         """Log posterior density of the sampled coordinates up to a constant (rows).
 
         The evidence that involves ``psi`` (measured and moved bodies) is integrated over it
-        together with the prior (module docstring, "Extra information").
+        together with the prior (module docstring, "Extra information"). A row with a
+        coordinate beyond ``_MAX_COORDINATE`` (or not a number) has none: ``-inf``, quietly.
         """
         z = np.atleast_2d(z)
+        inside = np.all(np.abs(z) <= _MAX_COORDINATE, axis=-1)  # a NaN is not inside
+        if not inside.all():  # no density out there (_MAX_COORDINATE), and nothing computed
+            out = np.full(z.shape[:-1], -np.inf)
+            if inside.any():
+                out[inside] = self.log_prob(z[inside])
+            return out
         lp = self.log_prior(z) if not self.has_extra else self._log_marginal(z)
         ok = np.isfinite(lp)
         if ok.all():  # the sampler's usual case: no rows to leave out

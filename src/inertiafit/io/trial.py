@@ -51,6 +51,7 @@ __all__ = [
     "MOTION_FLOOR",
     "REVERSAL_SWEEP",
     "SHORT_STEP_FACTOR",
+    "TIME_RESOLUTION",
     "TORQUE_SIGNS",
     "VELOCITY_AGREEMENT",
     "VELOCITY_SCALE_FLAG",
@@ -79,6 +80,11 @@ GAP_FACTOR = 1.5
 #: A time step shorter than this multiple of the median step is uneven sampling (a repeated or
 #: inserted sample). Steps rounded in the file (1500 Hz written to 0.1 ms) stay well inside.
 SHORT_STEP_FACTOR = 0.5
+#: Largest float64 spacing of the time stamps, as a fraction of the time step: at this
+#: resolution every step, and the sampling rate, is off by 0.1 % at most. Time stamps of 1e12 s
+#: (an epoch offset) are 2**-13 s apart, and a 1 kHz step read as 2**-10 s gave 1024 Hz; an
+#: epoch in seconds (1.7e9, 2.4e-7 s apart) at 1 kHz stays inside (2.4e-4 of its step).
+TIME_RESOLUTION = 1e-3
 #: A stretch of the trial tests the velocity against the angle only if the angle changes by at
 #: least this much over it (rad): 2 deg, 32 steps of a 1/16-deg encoder, so the angle's
 #: quantisation moves the comparison by 3 % at most. A trial that never moves this far
@@ -203,12 +209,14 @@ def make_trial(
     ------
     InputError
         If the channels differ in length, have fewer than ``MIN_SAMPLES`` samples, contain a
-        NaN or infinite value or an angle, velocity or torque beyond ``MAX_MAGNITUDE``, if time
-        does not strictly increase, if a time step exceeds ``GAP_FACTOR`` times the median step
-        (a gap) or falls short of ``SHORT_STEP_FACTOR`` times it, if the velocity is a unit
-        factor away from the angle's derivative, or if the columns look swapped (the velocity
-        follows the derivative of another channel than the angle); an EMG channel of another
-        length, with a non-finite value or beyond ``MAX_EMG`` volts.
+        NaN or infinite value or an angle, velocity or torque beyond ``MAX_MAGNITUDE``, if the
+        time stamps are too large for float64 to resolve their step (``TIME_RESOLUTION``), if
+        time does not strictly increase, if a time step exceeds ``GAP_FACTOR`` times the
+        median step (a gap) or falls short of ``SHORT_STEP_FACTOR`` times it, if the velocity
+        is a unit factor away from the angle's derivative or says the shaft is still while the
+        angle drifts, or if the columns look swapped (the velocity follows the derivative of
+        another channel than the angle); an EMG channel of another length, with a non-finite
+        value or beyond ``MAX_EMG`` volts.
     """
     names = {q: q for q in QUANTITIES}
     if columns:
@@ -267,6 +275,7 @@ def make_trial(
             )
 
     t = arrays["time"]
+    _check_resolution(t, source=source, column=names["time"])
     dt = np.diff(t)
     bad = dt <= 0
     if bad.any():
@@ -305,9 +314,10 @@ def make_trial(
         check = compare_velocity(t, arrays["angle"], arrays["velocity"], step=step)
     # before any advice on units or the torque's sign
     if not derived and not _follows_cleanly(check):
-        swapped = _swapped_columns(t, arrays, source=source, names=names)
-        if swapped is not None:
-            raise InputError(swapped)
+        problem = _still_velocity(t, arrays, check, source=source, names=names)
+        problem = problem or _swapped_columns(t, arrays, source=source, names=names)
+        if problem is not None:
+            raise InputError(problem)
     if check is not None:
         reverse, said = _judge_velocity(check, source=source, names=names, units=units)
         if reverse:
@@ -353,6 +363,24 @@ def make_trial(
         )
         coords["muscle"] = ("muscle", muscles, {"long_name": "muscle (EMG channel)"})
     return xr.Dataset(data_vars, coords=coords, attrs=dataset_attrs)
+
+
+def _check_resolution(time: NDArray, *, source: str, column: str) -> None:
+    """Refuse time stamps too large for float64 to resolve their step (:data:`TIME_RESOLUTION`).
+
+    The step is the mean over the trial, ``(t[-1] - t[0]) / (n - 1)``, which rounding of the
+    single stamps barely moves; a time that does not increase is left to the later checks.
+    """
+    mean_step = float(time[-1] - time[0]) / (time.size - 1)
+    largest = float(max(abs(time[0]), abs(time[-1])))
+    spacing = float(np.spacing(largest))
+    if mean_step > 0 and spacing > TIME_RESOLUTION * mean_step:
+        raise InputError(
+            f"{source}: column '{column}' reaches {largest:.6g} s, where float64 resolves only "
+            f"{spacing:.3g} s, {spacing / mean_step:.2g} of the {mean_step:.3g} s step (expected "
+            f"under {TIME_RESOLUTION:g} of it): the sampling rate cannot be resolved; write the "
+            "time from the trial's start (subtract the first time stamp before saving the file)"
+        )
 
 
 def derived_velocity(
@@ -571,6 +599,55 @@ def _tight(check: VelocityCheck) -> bool:
         check.stretches >= _SWAP_STRETCHES
         and check.agreement >= _SWAP_AGREEMENT
         and check.spread <= _SWAP_SPREAD
+    )
+
+
+#: Share of the trial at each end whose median angle measures a drift: a tenth, so a glitch or
+#: a jittery channel (0.5 deg SD) does not move it, while a steady drift is measured whole.
+_DRIFT_END = 0.1
+
+
+def _still_velocity(
+    time: NDArray,
+    arrays: Mapping[str, NDArray],
+    check: VelocityCheck | None,
+    *,
+    source: str,
+    names: Mapping[str, str],
+) -> str | None:
+    """The message for an angle that drifts while the velocity says the shaft is still, or None.
+
+    A rest trial whose angle drifts (a creeping zero, or a limb settling) beside a velocity of
+    about 0: the medians of the angle's first and last :data:`_DRIFT_END` give a rate that
+    moves it at least :data:`MIN_SWEEP` over the trial, half the velocity's samples are below
+    :data:`MOTION_FLOOR` and its mean is less than ``1 / VELOCITY_SCALE_LIMIT`` of the drift's
+    rate. A velocity that follows the angle decisively by a unit's factor (``check``: rad/s
+    read as deg/s) is left to the unit check. A steady torque follows the derivative of a
+    steady drift, so the search for swapped columns named a swap that is not there (a swapped
+    velocity column holds a torque or an angle: not still).
+    """
+    angle, velocity = arrays["angle"], arrays["velocity"]
+    k = max(1, round(_DRIFT_END * time.size))
+    span = float(np.mean(time[-k:]) - np.mean(time[:k]))
+    if not span > 0:
+        return None
+    rate = float(np.median(angle[-k:]) - np.median(angle[:k])) / span
+    duration = float(time[-1] - time[0])
+    median = float(np.median(np.abs(velocity)))
+    if abs(rate) * duration < MIN_SWEEP or median >= MOTION_FLOOR:
+        return None
+    if abs(float(np.mean(velocity)) / rate) >= 1 / VELOCITY_SCALE_LIMIT:
+        return None
+    if check is not None and check.decisive and check.ratio and _unit_causes(abs(check.ratio)):
+        return None
+    a, v = names["angle"], names["velocity"]
+    return (
+        f"{source}: column '{a}' drifts {math.degrees(rate):.2g} deg/s "
+        f"({math.degrees(rate) * duration:.2g} deg in {duration:.3g} s) while column '{v}' says "
+        f"the shaft is still (median speed {math.degrees(median):.2g} deg/s, mean "
+        f"{math.degrees(float(np.mean(velocity))):.2g} deg/s): the velocity does not follow the "
+        "angle; check the angle channel for a drifting zero, or the velocity channel for a dead "
+        "one"
     )
 
 

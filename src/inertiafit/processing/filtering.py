@@ -110,6 +110,15 @@ def design(
         raise InputError(f"{where}filter order: expected a positive integer, got {order!r}")
     if not (math.isfinite(cutoff) and cutoff > 0):
         raise InputError(f"{where}filter cutoff: expected a positive frequency, got {cutoff!r}")
+    if cutoff >= nyquist and cutoff == CUTOFF:
+        # No manifest key or command-line option sets the cut-off: the recording's rate is what
+        # a user can change (a library caller may pass another ``cutoff``).
+        raise InputError(
+            f"{where}sampling rate: {rate:g} Hz is too low for the {cutoff:g} Hz low-pass filter "
+            f"(its Nyquist frequency {nyquist:g} Hz must lie above the cut-off): record at more "
+            f"than {2 * cutoff:g} Hz; the cut-off is fixed for manifests and the command line "
+            "(from Python, process_study's cutoff argument sets it)"
+        )
     if cutoff >= nyquist:
         raise InputError(
             f"{where}filter cutoff: {cutoff:g} Hz is at or above the Nyquist frequency "
