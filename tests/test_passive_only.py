@@ -339,3 +339,30 @@ def test_a_posterior_written_before_the_group_still_reports(ankle_run, tmp_path)
     del inputs["living"]
     old.attrs["inputs"] = json.dumps(inputs)
     assert living_tables_from_tree(old) == {}
+
+
+def test_a_sweep_s_noise_model_ignores_a_repeated_column():
+    # sweep_noise projects out what the design spans; a living sweep's constant and hysteresis
+    # columns are the same column there. The span is found from the Gram matrix: the noise
+    # model is the one of the design without the repeat, and of an SVD's basis
+    from inertiafit.processing.gravity import sweep_noise
+
+    rng = np.random.default_rng(3)
+    n = 20_000
+    t = np.linspace(0.0, 1.0, n)
+    design = np.column_stack([np.ones(n), t, np.sin(np.pi * t), np.cos(np.pi * t)])
+    drift = np.convolve(rng.normal(0.0, 0.02, n), np.ones(200) / np.sqrt(200), mode="same")
+    torque = design @ [1.0, 2.0, 0.5, -0.3] + rng.normal(0.0, 0.05, n) + drift
+    model = design @ np.linalg.lstsq(design, torque, rcond=None)[0]
+    repeated = np.column_stack([design, design[:, 0]])
+    u, s, _ = np.linalg.svd(design, full_matrices=False)
+    one, two, svd = (sweep_noise(torque, model, x, 1000.0) for x in (design, repeated, u))
+    for got in (two, svd):
+        assert got.white_sd == pytest.approx(one.white_sd, rel=1e-9)
+        assert got.drift_sd == pytest.approx(one.drift_sd, rel=1e-4)
+        assert got.drift_time == pytest.approx(one.drift_time, rel=1e-3)
+    assert one.white_sd == pytest.approx(0.05, rel=0.1)
+    # the drift is found; white noise alone (negative control) leaves a far smaller one
+    white = design @ [1.0, 2.0, 0.5, -0.3] + rng.normal(0.0, 0.05, n)
+    fit = design @ np.linalg.lstsq(design, white, rcond=None)[0]
+    assert sweep_noise(white, fit, repeated, 1000.0).drift_sd < 0.3 * one.drift_sd
