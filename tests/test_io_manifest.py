@@ -407,6 +407,8 @@ def test_body_names_that_cannot_name_a_file_are_refused_before_any_work(study_di
     # A body's name becomes part of output file names (corner-<body>.pdf) and condition labels;
     # these ended in a traceback after sampling.
     key = '"' + name.replace("\\", "\\\\").replace("\x00", "\\u0000") + '"'
+    # beyond ASCII as TOML escapes: the manifest is then ASCII whatever the locale writes
+    key = "".join(c if ord(c) < 128 else f"\\U{ord(c):08X}" for c in key)
     text = (
         (BODIES + TRIALS)
         .replace("[bodies.weight]", f"[bodies.{key}]")
