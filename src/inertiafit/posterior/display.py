@@ -93,7 +93,7 @@ def trial_counts(post: Posterior) -> str | None:
     status = trials.get("status") if isinstance(trials, dict) else None
     if not status:
         return None
-    from inertiafit.processing.study import (
+    from inertiafit.processing.trials import (
         STATUS_EXCLUDED,
         STATUS_OK,
         STATUS_REFERENCE,

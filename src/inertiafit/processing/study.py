@@ -25,7 +25,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -33,40 +33,39 @@ import xarray as xr
 
 from inertiafit.errors import InputError, StudyRefused
 from inertiafit.io import Study, TrialSpec, load_study
-from inertiafit.io.emg import EmgSettings
 from inertiafit.io.manifest import file_sha256
-from inertiafit.processing.activity import (
-    ActivityCheck,
-    RestLevels,
-    check_fast,
-    check_sweep,
-    study_rest_levels,
-)
-from inertiafit.processing.emg import mvc_levels
-from inertiafit.processing.filtering import sampling_rate
-from inertiafit.processing.gravity import GravityFit, fit_gravity, pooled_noise
-from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
+from inertiafit.processing.gravity import GravityFit, pooled_noise
+from inertiafit.processing.inertia import InertiaEstimate
+from inertiafit.processing.kinds import KINDS, Stage
 from inertiafit.processing.lag import lag_consistency_flags
 from inertiafit.processing.living import (
     SMOOTH_AMPLITUDES,
     SMOOTH_EDGE_WEIGHT,
     LivingStatics,
     PostureGeometry,
-    StaticCurve,
-    StaticRecord,
     fit_statics,
     passive_basis,
     posture_geometry,
 )
 from inertiafit.processing.plausibility import (
-    SignVerdict,
-    check_quasi_static_sweep,
-    check_rest_hold,
-    cruise_slope,
-    fast_trial_flags,
-    gravity_scale_flag,
     gravity_scatter_message,
-    inertia_sign_checks,
+)
+from inertiafit.processing.trials import (
+    DIAGNOSTIC_COLUMN,
+    EMG_TRACE_COLUMNS,
+    EMG_TRIAL_COLUMNS,
+    LIVING_ROW_FLAG,
+    LIVING_TRIAL_COLUMNS,
+    STATUS_NOT_REACHED,
+    STATUS_OK,
+    STATUS_REFUSED,
+    TRACE_COLUMNS,
+    TRIAL_COLUMNS,
+    EmgCheck,
+    TrialRun,
+    relative_file,
+    traces_frame,
+    trial_row,
 )
 from inertiafit.stats import inverse_variance_mean
 
@@ -89,77 +88,6 @@ __all__ = [
     "usable_trials",
 ]
 
-#: Columns of ``trials.csv``, a row per trial (SI units; ``speed`` in deg/s).
-TRIAL_COLUMNS = [
-    "file",
-    "condition",
-    "kind",
-    "speed",
-    "inertia",
-    "inertia_frame_mean",
-    "gravity_moment",
-    "gravity_phase",
-    "window_start",
-    "window_end",
-    "n_window",
-    "residual_rms",
-    "flags",
-    "inertia_se",
-    "gravity_moment_se",
-    "offset",
-    "lag",
-    "lag_se",
-    "status",
-]
-#: Columns ``trials.csv`` gains when a body is living: the trial's posture and a fast trial's
-#: viscous damping ``b`` (N m s/rad) with its standard error.
-LIVING_TRIAL_COLUMNS = ["posture", "damping", "damping_se"]
-#: The column ``trials.csv`` gains when the study has EMG: the largest EMG envelope over its
-#: rest level, over the muscles, in the windows checked (a fast trial's analysis and reflex
-#: windows, a quasi-static sweep's or rest trial's length, an MVC trial's peak; empty for a
-#: trial without EMG).
-EMG_TRIAL_COLUMNS = ["emg_peak_ratio"]
-#: Columns of :attr:`ProcessedStudy.emg_traces` (``emg_traces.csv``): each fast trial's EMG
-#: envelope over its rest level around the windows checked, for figures. ``time`` is in s
-#: after the motion's onset; ``active`` (0 or 1) marks an active stretch that counts;
-#: ``status`` is the trial's (``ok``, ``flagged`` or ``excluded``).
-EMG_TRACE_COLUMNS = [
-    "condition",
-    "trial",
-    "muscle",
-    "time",
-    "ratio",
-    "threshold",
-    "active",
-    "status",
-]
-#: The flag of a living condition's quasi-static row: what its gravity moment is.
-LIVING_ROW_FLAG = (
-    "living body: gravity_moment here is the rigid fit of this sweep alone, which absorbs the "
-    "passive curve (the paper's method); the condition's M_g is the joint fit's "
-    "(passive_parameters.csv)"
-)
-#: ``status`` of a trial whose values were used, of one skipped (``on_trial_error``), and of
-#: one excluded for muscle activity (``[emg] on_activity = "exclude"``).
-STATUS_OK, STATUS_SKIPPED, STATUS_EXCLUDED = "ok", "skipped", "excluded"
-#: ``status`` of a ``kind = "mvc"`` trial: read for its EMG's MVC levels, never evidence.
-STATUS_REFERENCE = "reference"
-#: ``status`` in ``diagnostics.csv`` of a trial that caused a refusal, and of one the study
-#: stopped before.
-STATUS_REFUSED, STATUS_NOT_REACHED = "refused", "not reached"
-#: The column ``diagnostics.csv`` adds to those of ``trials.csv``: why a trial was refused.
-DIAGNOSTIC_COLUMN = "cause"
-#: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures.
-TRACE_COLUMNS = [
-    "condition",
-    "trial",
-    "speed",
-    "window_start",
-    "window_end",
-    "time",
-    "velocity",
-    "acceleration",
-]
 #: Columns of :attr:`ProcessedStudy.sensitivity`: ``dI/dA``, ``dI/dB``, ``dI/dC`` of each fast
 #: trial for the gravity model ``A sin(theta) + B cos(theta) + C`` (kg m^2 per N m).
 SENSITIVITY_COLUMNS = ["sin", "cos", "offset"]
@@ -167,9 +95,6 @@ SENSITIVITY_COLUMNS = ["sin", "cos", "offset"]
 RATE_TOLERANCE = 0.01
 #: Phase difference between conditions (rad) beyond which bodies are not mounted in line.
 PHASE_TOLERANCE = 0.05
-_T = TypeVar("_T")
-#: Points kept of each fast trial's moving part in the figure traces.
-TRACE_POINTS = 600
 
 
 @dataclass
@@ -242,7 +167,7 @@ class ProcessedStudy:
         """Every trial of the manifest, used and skipped, in manifest order (``trials.csv``)."""
         if self.skipped.empty:
             return self.trials
-        order = {_relative(t.file, self.study.base_dir): t.index for t in self.study.trials}
+        order = {relative_file(t.file, self.study.base_dir): t.index for t in self.study.trials}
         both = pd.concat([self.trials, self.skipped], ignore_index=True)
         return both.sort_values("file", key=lambda f: f.map(order), kind="stable").reset_index(
             drop=True
@@ -273,8 +198,8 @@ def diagnostics_table(
     have = {str(r["file"]): r for r in gathered.to_dict(orient="records")}
     rows = []
     for spec in study.trials:
-        name = _relative(spec.file, study.base_dir)
-        row = dict(have.get(name) or {**_row(study, spec), "status": STATUS_NOT_REACHED})
+        name = relative_file(spec.file, study.base_dir)
+        row = dict(have.get(name) or {**trial_row(study, spec), "status": STATUS_NOT_REACHED})
         cause = refused.get(name, "")
         if cause:
             row["status"] = STATUS_REFUSED
@@ -298,13 +223,6 @@ def usable_trials(trials: pd.DataFrame) -> pd.DataFrame:
     if "status" not in trials.columns:
         return trials
     return trials[trials["status"].fillna(STATUS_OK) == STATUS_OK]
-
-
-def _relative(path: Path, base: Path) -> str:
-    try:
-        return str(path.relative_to(base))
-    except ValueError:
-        return str(path)
 
 
 def combine_gravity(fits: list[GravityFit], where: str) -> GravityFit:
@@ -369,41 +287,6 @@ def condition_gravity(trials: pd.DataFrame) -> dict[str, float]:
     return out
 
 
-def _trace(condition: str, number: int, time, est: InertiaEstimate, speed: float) -> dict:
-    """The moving part of a fast trial for plotting: its filtered velocity and acceleration.
-
-    They are the ones the inertia was estimated from (the same zero-lag filter). Columns
-    (:data:`TRACE_COLUMNS`) as arrays: :func:`_traces` makes one frame of all trials (a
-    frame per trial, concatenated, costs more than the rest of a fast trial's processing).
-    """
-    v, a = np.asarray(est.velocity), np.asarray(est.acceleration)
-    moving = np.flatnonzero(np.abs(v) > 0.02 * np.max(np.abs(v)))
-    lo, hi = (moving[0], moving[-1] + 1) if len(moving) else (0, len(time))
-    step = max(1, (hi - lo) // TRACE_POINTS)
-    sl = slice(lo, hi, step)
-    sign = 1.0 if np.median(v[lo:hi]) >= 0 else -1.0  # plot every move as positive
-    n = len(time[sl])
-    return {
-        "condition": np.full(n, condition, dtype=object),
-        "trial": np.full(n, number),
-        "speed": np.full(n, speed),
-        "window_start": np.full(n, est.window_start),
-        "window_end": np.full(n, est.window_end),
-        "time": time[sl],
-        "velocity": sign * v[sl],
-        "acceleration": sign * a[sl],
-    }
-
-
-def _traces(parts: list[dict]) -> pd.DataFrame:
-    """One frame of the traces of every fast trial, in order."""
-    if not parts:
-        return pd.DataFrame(columns=TRACE_COLUMNS)
-    return pd.DataFrame(
-        {c: np.concatenate([p[c] for p in parts]) for c in TRACE_COLUMNS}, columns=TRACE_COLUMNS
-    )
-
-
 def process_study(
     study: Study | str | Path,
     *,
@@ -461,7 +344,7 @@ def process_study(
     if not isinstance(study, Study):
         study = load_study(study)
     say = echo or (lambda _msg: None)
-    run = _Run(study)
+    run = TrialRun(study)
     try:
         return _process(study, run, cutoff=cutoff, order=order, say=say, check=check_gravity)
     except InputError as exc:  # the table gathered so far travels with the error
@@ -475,14 +358,18 @@ def process_study(
 
 def _process(
     study: Study,
-    run: _Run,
+    run: TrialRun,
     *,
     cutoff: float,
     order: int,
     say: Callable[[str], None],
     check: Callable[[pd.DataFrame, dict[str, GravityFit]], object] | None,
 ) -> ProcessedStudy:
-    """:func:`process_study`'s stages; ``run`` keeps what was gathered when one raises."""
+    """:func:`process_study`'s stages; ``run`` keeps what was gathered when one raises.
+
+    Each trial goes to the handler of its kind (:data:`~inertiafit.processing.kinds.KINDS`):
+    trial by trial before the gravity models, then each kind's trials together after them.
+    """
     say(f"reading {len(study.trials)} trials")
     data = []
     for spec in study.trials:
@@ -492,79 +379,24 @@ def _process(
     data = _check_rates(data, run)
     rows = run.rows  # by manifest order
     notes = run.notes
-    emg = _EmgCheck.of(study, data, notes)
+    emg = EmgCheck.of(study, data, notes)
     say("fitting the gravity model of each condition (quasi-static trials)")
     living_conditions = _living_conditions(study)
     postures = _posture_geometry(study)
-    qs_fits: dict[str, list[GravityFit]] = {}
-    homes = _check_rigid_postures(study, living_conditions)
-    rotation_fits: dict[str, dict[str, list[GravityFit]]] = {}
-    records: list[StaticRecord] = []
+    stage = Stage(
+        study,
+        run,
+        emg,
+        living_conditions,
+        _check_rigid_postures(study, living_conditions),
+        cutoff,
+        order,
+        say,
+    )
     for spec, ds in data:
-        if spec.kind == "rest":
-            if run.attempt(spec, functools.partial(check_rest_hold, ds)) is None:
-                continue
-            held: xr.Dataset = ds
-            rest_flag: tuple[str, ...] = ()
-            if emg is not None and "emg" in ds:  # checked like a sweep: a hold can contract
-                checked = run.attempt(spec, functools.partial(emg.sweep, spec, ds))
-                if checked is None:
-                    continue
-                held, rest_flag, rest_check = checked
-                emg.stop(spec, rest_check)
-            if held.sizes["time"] < 2:  # active throughout: nothing of it is used
-                row = _rest_row(study, spec, ds, reader=run.reader_flags(spec))
-                run.exclude(spec, row, rest_check.describe())
-                continue
-            row = _rest_row(study, spec, held, reader=run.reader_flags(spec))
-            row["flags"] = "; ".join(filter(None, [*rest_flag, row["flags"]]))
-            notes.extend(f"{spec.file}: {flag}" for flag in rest_flag)
-            records.append(_record(spec, held))
-            rows[spec.index] = row
-            continue
-        if spec.kind == "mvc":  # its EMG's MVC levels only (the manifest gives it EMG)
-            assert emg is not None
-            run.reference(spec, emg.mvc_row(spec, ds, reader=run.reader_flags(spec)))
-            continue
-        if spec.kind != "quasi-static":
-            continue
-        emg_flag: tuple[str, ...] = ()
-        if emg is not None and "emg" in ds:
-            checked = run.attempt(spec, functools.partial(emg.sweep, spec, ds))
-            if checked is None:
-                continue
-            fitted, emg_flag, sweep_check = checked
-            emg.stop(spec, sweep_check)  # refuses the study, whatever on_trial_error says
-        else:
-            fitted = ds
-        fit = run.attempt(spec, functools.partial(fit_gravity, fitted))
-        if fit is None:
-            continue
-        rigid = spec.condition not in living_conditions  # a living sweep's M_g: the joint fit's
-        if rigid:
-            # its values go into a refused study's table (a skipped trial has its own row)
-            rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
-            if run.attempt(spec, functools.partial(check_quasi_static_sweep, fit)) is None:
-                del rows[spec.index]
-                continue
-        if spec.condition in living_conditions:
-            # the rigid fit of one sweep absorbs the passive curve: its drift and friction
-            # flags describe that curve, and its M_g is the rigid model's (the paper's)
-            kept = [f for f in fit.flags if f.startswith(("not quasi-static", "small angle"))]
-            fit = dataclasses.replace(fit, flags=(*kept, LIVING_ROW_FLAG))
-        if emg_flag:
-            fit = dataclasses.replace(fit, flags=(*fit.flags, *emg_flag))
-        notes.extend(f"{fit.source}: {flag}" for flag in fit.flags if flag != LIVING_ROW_FLAG)
-        if rigid and spec.posture != homes[spec.condition]:
-            # a rigid sweep away from the condition's fast trials: it measures the posture's
-            # gravity rotation (its phase), not the condition's M_g
-            by_posture = rotation_fits.setdefault(spec.condition, {})
-            by_posture.setdefault(spec.posture, []).append(fit)
-        else:
-            qs_fits.setdefault(spec.condition, []).append(fit)
-        rows[spec.index] = _row(study, spec, gravity=fit, reader=run.reader_flags(spec))
-        if spec.condition in living_conditions:
-            records.append(_record(spec, fitted))
+        KINDS[spec.kind].read(stage, spec, ds)
+    qs_fits, records, homes = stage.qs_fits, stage.records, stage.homes
+    rotation_fits = stage.rotation_fits
     run.check_left(qs_fits, "quasi-static")
     _check_gravity_scatter(study, qs_fits, living_conditions)
     gravity = {
@@ -588,7 +420,7 @@ def _process(
             )
         if statics.fit_points is not None:  # the files as trials.csv names them
             points = statics.fit_points.assign(
-                source=[_relative(Path(f), study.base_dir) for f in statics.fit_points.source]
+                source=[relative_file(Path(f), study.base_dir) for f in statics.fit_points.source]
             )
             statics = dataclasses.replace(statics, fit_points=points)
         _apply_checks(study, statics, data, rows, notes)
@@ -630,103 +462,10 @@ def _process(
     _check_phases(study, gravity, notes)
     if check is not None:
         check(pd.DataFrame([rows[i] for i in sorted(rows)], columns=TRIAL_COLUMNS), gravity)
-    say("estimating the inertia of each fast trial")
-    traces: list[dict] = []
-    count: dict[str, int] = {}
-    used_fast: dict[str, list[InertiaEstimate]] = {}
-    fast_estimates: list[tuple[TrialSpec, InertiaEstimate]] = []
-    estimated: list[tuple[TrialSpec, xr.Dataset, InertiaEstimate]] = []
-    for spec, ds in data:
-        if spec.kind != "fast":
-            continue
-        subtracted: GravityFit | StaticCurve = gravity[spec.condition]
-        if statics is not None and spec.condition in living_conditions:
-            subtracted = statics.curve(spec.condition, spec.posture, _direction(ds))
-        est = run.attempt(
-            spec,
-            functools.partial(
-                estimate_inertia,
-                ds,
-                subtracted,
-                window=spec.window,
-                speed_deg_s=spec.speed,
-                cutoff=cutoff,
-                order=order,
-                lag=spec.lag,
-                lag_bounds=study.calibration.lag_bounds,
-                refuse_negative=False,  # judged with the condition's other fast trials below
-            ),
-        )
-        if est is not None:
-            estimated.append((spec, ds, est))
-    for spec, _, est in estimated:  # in a refused study's table until they are judged
-        rows[spec.index] = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
-    verdicts = _sign_verdicts(study, estimated, gravity)
-    errors = [
-        (spec, verdicts[spec.index].error)
-        for spec, _, _ in estimated
-        if spec.index in verdicts and verdicts[spec.index].error
-    ]
-    if errors and not run.skip:  # every negative trial marked in the refused study's table
-        for spec, message in errors:
-            run.refuse(spec, message)
-        raise InputError(errors[0][1])
-    for spec, ds, first in estimated:
-        verdict = verdicts.get(spec.index)
-        est = first
-        if verdict is not None and verdict.error:
-            run.attempt(spec, functools.partial(_refuse, verdict.error))  # raises, or skips it
-            del rows[spec.index]
-            continue
-        if verdict is not None and verdict.flag:
-            est = dataclasses.replace(est, flags=(verdict.flag, *est.flags))
-        more = run.attempt(
-            spec,
-            functools.partial(
-                fast_trial_flags,
-                ds,
-                est,
-                gravity[spec.condition],
-                speed_deg_s=spec.speed,
-                window=spec.window,
-                lag_bounds=study.calibration.lag_bounds,
-            ),
-        )
-        if more is None:
-            del rows[spec.index]
-            continue
-        if spec.condition not in living_conditions:  # a living cruise holds the passive curve
-            scale = gravity_scale_flag(cruise_slope(ds, est, gravity[spec.condition]))
-            more = [*more, scale] if scale else more
-        if emg is not None and "emg" in ds:
-            activity = run.attempt(spec, functools.partial(emg.fast, spec, ds, est))
-            if activity is None:
-                del rows[spec.index]
-                continue
-            emg.stop(spec, activity)
-            if activity.active and emg.action == "exclude":
-                est = dataclasses.replace(est, flags=(*est.flags, *more))
-                row = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
-                if spec.condition in living_conditions:
-                    row.update(damping=est.damping, damping_se=est.damping_se)
-                del rows[spec.index]
-                run.exclude(spec, row, activity.describe())
-                continue
-            if activity.active:
-                more = [*more, activity.describe()]
-        if more:
-            est = dataclasses.replace(est, flags=(*est.flags, *more))
-        notes.extend(f"{est.source}: {flag}" for flag in est.flags)
-        used_fast.setdefault(spec.condition, []).append(est)
-        fast_estimates.append((spec, est))
-        rows[spec.index] = _row(study, spec, inertia=est, reader=run.reader_flags(spec))
-        number = count[spec.condition] = count.get(spec.condition, 0) + 1
-        traces.append(
-            _trace(spec.condition, number, ds["time"].values, est, float(spec.speed or 0.0))
-        )
-    run.check_left(used_fast, "fast")
-    if emg is not None:
-        notes.extend(emg.summary(run.skipped))
+    stage.gravity, stage.statics = gravity, statics
+    for kind in KINDS.values():
+        kind.after_gravity(stage, [(spec, ds) for spec, ds in data if spec.kind == kind.name])
+    fast_estimates, traces = stage.fast_estimates, stage.traces
     _check_lags(study, fast_estimates, rows, notes)
     sensitivity = _sensitivity_frame(
         {
@@ -768,7 +507,7 @@ def _process(
         study=study,
         trials=trials,
         gravity=gravity,
-        traces=_traces(traces),
+        traces=traces_frame(traces),
         warnings=list(dict.fromkeys(notes)),  # a reader flag a later step repeats: once
         skipped=pd.DataFrame([run.skipped[i] for i in sorted(run.skipped)], columns=left_columns),
         provenance=[run.provenance[t.index] for t in study.trials],
@@ -787,34 +526,8 @@ def _check_gravity_scatter(
     for cond, group in fits.items():
         message = None if cond in living else gravity_scatter_message(group, cond)
         if message is not None:
-            files = {_relative(Path(f.source), study.base_dir): message for f in group}
+            files = {relative_file(Path(f.source), study.base_dir): message for f in group}
             raise StudyRefused(f"{study.path}: {message}", refused=files)
-
-
-def _refuse(message: str) -> None:
-    raise InputError(message)
-
-
-def _sign_verdicts(
-    study: Study,
-    estimated: list[tuple[TrialSpec, xr.Dataset, InertiaEstimate]],
-    gravity: dict[str, GravityFit],
-) -> dict[int, SignVerdict]:
-    """The negative inertias judged per condition (:func:`inertia_sign_checks`), by index."""
-    out: dict[int, SignVerdict] = {}
-    for cond in study.conditions:
-        group = [(spec, ds, est) for spec, ds, est in estimated if spec.condition == cond]
-        if not any(est.inertia < 0 for _, _, est in group):
-            continue
-        entries = [
-            (spec.torque_sign, est, cruise_slope(ds, est, gravity[cond]))
-            for spec, ds, est in group
-        ]
-        checked = inertia_sign_checks(entries, cond)
-        for (spec, _, _), verdict in zip(group, checked, strict=True):
-            if verdict is not None:
-                out[spec.index] = verdict
-    return out
 
 
 def _living_conditions(study: Study) -> set[str]:
@@ -854,7 +567,7 @@ def _apply_checks(
         failed.append((spec, check))
     if not failed:
         return
-    names = ", ".join(_relative(spec.file, study.base_dir) for spec, _ in failed)
+    names = ", ".join(relative_file(spec.file, study.base_dir) for spec, _ in failed)
     worst = max(check.structure for _, check in failed)
     if not statics.basis.smooth:
         raise InputError(
@@ -911,32 +624,6 @@ def _check_rotations(
         if abs(off) > ROTATION_REFUSE_SD:
             raise InputError(f'{said} (or give gravity_rotation_sd = "free" to fit it)')
         notes.append(said)
-
-
-def _record(spec: TrialSpec, ds: xr.Dataset) -> StaticRecord:
-    return StaticRecord(
-        angle=ds["angle"].values,
-        torque=ds["torque"].values,
-        condition=spec.condition,
-        posture=spec.posture,
-        kind=spec.kind,
-        source=str(spec.file),
-        rate=sampling_rate(ds),
-    )
-
-
-def _rest_row(study: Study, spec: TrialSpec, ds: xr.Dataset, *, reader: tuple[str, ...]) -> dict:
-    """A rest trial's row: its mean torque (``offset``) and spread (``residual_rms``)."""
-    row = _row(study, spec, reader=reader)
-    torque = ds["torque"].values
-    row.update(offset=float(np.mean(torque)), residual_rms=float(np.std(torque)))
-    return row
-
-
-def _direction(ds: xr.Dataset) -> int:
-    """The direction of a fast move: the sign of its fastest velocity."""
-    v = ds["velocity"].values
-    return 1 if v[int(np.argmax(np.abs(v)))] >= 0 else -1
 
 
 def _check_rigid_postures(study: Study, living: set[str]) -> dict[str, str]:
@@ -1033,114 +720,7 @@ def _measured_rotations(
     return out
 
 
-class _Run:
-    """The bookkeeping of one :func:`process_study` call: skips, reader flags, provenance."""
-
-    def __init__(self, study: Study) -> None:
-        self.study = study
-        self.skip = study.on_trial_error == "skip"
-        self.notes: list[str] = []
-        self.skipped: dict[int, dict] = {}  # rows of skipped trials, by manifest index
-        self.reasons: dict[int, str] = {}
-        self.flags: dict[int, tuple[str, ...]] = {}  # reader flags, by manifest index
-        self.contents: dict[str, TrialSpec] = {}  # first trial read of each SHA-256
-        self.rows: dict[int, dict] = {}  # rows of the trials processed, by manifest index
-        self.failed: dict[str, str] = {}  # the trial that stopped the study: file -> reason
-        self.provenance: dict[int, dict[str, Any]] = {
-            t.index: {
-                "file": _relative(t.file, study.base_dir),
-                "path": str(t.file),
-                "sha256": None,
-                "condition": t.condition,
-                "kind": t.kind,
-                "status": STATUS_OK,
-                "reader": t.reader_settings(),
-            }
-            for t in study.trials
-        }
-
-    def attempt(self, spec: TrialSpec, step: Callable[[], _T]) -> _T | None:
-        """``step()``, or ``None`` when it raised InputError and bad trials are skipped."""
-        try:
-            return step()
-        except InputError as exc:
-            if not self.skip:
-                self.refuse(spec, str(exc))
-                raise
-            self.drop(spec, str(exc))
-            return None
-
-    def refuse(self, spec: TrialSpec, message: str) -> None:
-        """Note the trial that stops the study (its row in the diagnostics is ``refused``)."""
-        self.failed[_relative(spec.file, self.study.base_dir)] = message.removeprefix(
-            f"{spec.file}: "
-        )
-
-    def drop(self, spec: TrialSpec, message: str) -> None:
-        """Skip a trial: its row (no values, the reason in ``flags``) and a warning line."""
-        reason = message.removeprefix(f"{spec.file}: ")
-        self.reasons[spec.index] = reason
-        self.notes.append(f"{spec.file}: trial skipped: {reason}")
-        row = _row(self.study, spec, reader=self.reader_flags(spec))
-        row.update(
-            status=STATUS_SKIPPED,
-            flags="; ".join(filter(None, [f"skipped: {reason}", row["flags"]])),
-        )
-        self.skipped[spec.index] = row
-        self.provenance[spec.index]["status"] = STATUS_SKIPPED
-
-    def exclude(self, spec: TrialSpec, row: dict, reason: str) -> None:
-        """Exclude a trial for muscle activity; nothing of it is used.
-
-        Its row keeps its values, the reason first in ``flags``, ``status`` ``"excluded"``;
-        a line joins the warnings.
-        """
-        self.reasons[spec.index] = reason
-        self.notes.append(f"{spec.file}: trial excluded: {reason}")
-        row.update(
-            status=STATUS_EXCLUDED,
-            flags="; ".join(filter(None, [f"excluded: {reason}", row["flags"]])),
-        )
-        self.skipped[spec.index] = row
-        self.provenance[spec.index]["status"] = STATUS_EXCLUDED
-
-    def reference(self, spec: TrialSpec, row: dict) -> None:
-        """Keep an MVC trial's row (``status`` ``"reference"``): listed, never evidence."""
-        row["status"] = STATUS_REFERENCE
-        self.skipped[spec.index] = row
-        self.provenance[spec.index]["status"] = STATUS_REFERENCE
-
-    def reader_flags(self, spec: TrialSpec) -> tuple[str, ...]:
-        return self.flags.get(spec.index, ())
-
-    def check_left(self, used: dict[str, list], kind: str) -> None:
-        """Every condition with trials of ``kind`` in the manifest keeps at least one."""
-        for condition in self.study.conditions:
-            listed = [t for t in self.study.trials if t.condition == condition and t.kind == kind]
-            if not listed or used.get(condition):
-                continue
-            gone = [t for t in listed if t.index in self.skipped]
-            how = (
-                "skipped"
-                if all(self.skipped[t.index]["status"] == STATUS_SKIPPED for t in gone)
-                else "left out"
-            )
-            named = ", ".join(
-                f"{_relative(t.file, self.study.base_dir)} ({self.reasons[t.index]})"
-                for t in gone[:3]
-            ) + (", ..." if len(gone) > 3 else "")
-            need = (
-                "its fast trials need the gravity model it gives"
-                if kind == "quasi-static"
-                else "its inertia has no evidence"
-            )
-            raise InputError(
-                f"{self.study.path}: condition '{condition}': no usable {kind} trial; "
-                f"{how}: {named}; {need}"
-            )
-
-
-def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
+def _read(spec: TrialSpec, run: TrialRun) -> xr.Dataset:
     """Hash and read one trial; its reader flags go to the warnings.
 
     A file whose content is that of a trial read before (a copy, a hard link) is refused:
@@ -1151,7 +731,7 @@ def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
     first = run.contents.setdefault(digest, spec)
     if first is not spec:
         raise InputError(
-            f"{spec.file}: the same recording as {_relative(first.file, run.study.base_dir)} "
+            f"{spec.file}: the same recording as {relative_file(first.file, run.study.base_dir)} "
             f"(identical content, SHA-256 {digest[:12]}...); list each recording once"
         )
     ds = spec.read()
@@ -1163,7 +743,7 @@ def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
     same = run.contents.setdefault(f"samples:{samples.hexdigest()}", spec)
     if same is not spec:
         raise InputError(
-            f"{spec.file}: the same recording as {_relative(same.file, run.study.base_dir)} "
+            f"{spec.file}: the same recording as {relative_file(same.file, run.study.base_dir)} "
             "(the same angle and torque samples, saved differently); list each recording once"
         )
     run.provenance[spec.index]["sampling_rate"] = float(ds.attrs["sampling_rate"])
@@ -1175,7 +755,7 @@ def _read(spec: TrialSpec, run: _Run) -> xr.Dataset:
     return ds
 
 
-def _check_rates(data: list, run: _Run) -> list:
+def _check_rates(data: list, run: TrialRun) -> list:
     """One sampling rate per study; the trials that differ stop the study or are skipped.
 
     The reference is the first trial's rate, or, when bad trials are skipped, the median
@@ -1200,50 +780,6 @@ def _check_rates(data: list, run: _Run) -> list:
             continue
         kept.append((spec, ds))
     return kept
-
-
-def _row(
-    study: Study,
-    spec: TrialSpec,
-    *,
-    gravity: GravityFit | None = None,
-    inertia: InertiaEstimate | None = None,
-    reader: tuple[str, ...] = (),
-) -> dict:
-    nan = math.nan
-    row: dict[str, Any] = dict.fromkeys(TRIAL_COLUMNS, nan)
-    row.update(
-        file=_relative(spec.file, study.base_dir),
-        condition=spec.condition,
-        kind=spec.kind,
-        speed=spec.speed if spec.speed is not None else nan,
-        flags="; ".join(reader),
-        status=STATUS_OK,
-    )
-    if gravity is not None:
-        row.update(
-            gravity_moment=gravity.gravity_moment,
-            gravity_moment_se=gravity.gravity_moment_se,
-            gravity_phase=gravity.gravity_phase,
-            offset=gravity.offset,
-            residual_rms=gravity.residual_rms,
-            n_window=gravity.n,
-            flags="; ".join(dict.fromkeys([*reader, *gravity.flags])),
-        )
-    if inertia is not None:
-        row.update(
-            inertia=inertia.inertia,
-            inertia_se=inertia.inertia_se,
-            inertia_frame_mean=inertia.inertia_frame_mean,
-            window_start=inertia.window_start,
-            window_end=inertia.window_end,
-            n_window=inertia.n_window,
-            residual_rms=inertia.residual_rms,
-            flags="; ".join(dict.fromkeys([*reader, *inertia.flags])),
-            lag=inertia.lag,
-            lag_se=inertia.lag_se,
-        )
-    return row
 
 
 def _check_lags(
@@ -1291,163 +827,3 @@ def _check_phases(study: Study, gravity: dict[str, GravityFit], notes: list[str]
                 f"{study.path}: the gravity phase of condition '{c}' differs from '{conds[0]}' "
                 f"by {diff:.3f} rad; are the bodies mounted in line?"
             )
-
-
-@dataclass
-class _EmgCheck:
-    """The EMG check of one :func:`process_study` call: settings, rest levels, peak ratios."""
-
-    study: Study
-    settings: EmgSettings
-    rest: RestLevels
-    mvc: dict[str, float] | None = None  # each muscle's MVC level (V), with mvc trials
-    peak: dict[int, float] = field(default_factory=dict)  # emg_peak_ratio by manifest index
-    checks: list[tuple[TrialSpec, ActivityCheck]] = field(default_factory=list)  # fast trials
-
-    @property
-    def action(self) -> str:
-        return self.settings.on_activity
-
-    @classmethod
-    def of(cls, study: Study, data: list, notes: list[str]) -> _EmgCheck | None:
-        """The check, when a trial read has EMG; ``None`` otherwise.
-
-        Rest levels from the rest trials, else the quasi-static ones (said in ``notes``);
-        with ``kind = "mvc"`` trials, each checked muscle's MVC level (:func:`mvc_levels`,
-        its largest peak envelope over them).
-        """
-        if not any("emg" in ds for _, ds in data):
-            return None
-        settings = study.emg if study.emg is not None else EmgSettings()
-        rest, lines = study_rest_levels(
-            [ds for spec, ds in data if spec.kind == "rest"],
-            [ds for spec, ds in data if spec.kind == "quasi-static"],
-            settings,
-            base_dir=str(study.base_dir),
-        )
-        notes.extend(f"{study.path}: {line}" for line in lines)
-        mvc = None
-        listed = [t for t in study.trials if t.kind == "mvc"]
-        if listed:
-            read = [ds for spec, ds in data if spec.kind == "mvc"]
-            if not read:
-                names = ", ".join(_relative(t.file, study.base_dir) for t in listed[:3])
-                raise InputError(
-                    f"{study.path}: no mvc trial could be read ({names}, skipped); the "
-                    "activity check's %MVC threshold needs one"
-                )
-            checked = dict.fromkeys(
-                str(m)
-                for spec, ds in data
-                if spec.kind != "mvc" and "emg" in ds
-                for m in ds["emg"]["muscle"].values
-            )
-            mvc = mvc_levels(
-                read,
-                band=settings.band,
-                rms_window=settings.rms_window,
-                muscles=list(checked) or None,
-            )
-        return cls(study, settings, rest, mvc)
-
-    def mvc_row(self, spec: TrialSpec, ds: xr.Dataset, *, reader: tuple[str, ...]) -> dict:
-        """An MVC trial's row: each muscle's peak envelope, in V and over its rest level."""
-        own = mvc_levels(ds, band=self.settings.band, rms_window=self.settings.rms_window)
-        parts, ratios = [], []
-        for m, peak in own.items():
-            mean = self.rest.levels.get(m, (math.nan, math.nan))[0]
-            if math.isfinite(mean):
-                ratios.append(peak / mean)
-            shown = f" ({peak / mean:.0f} x rest)" if math.isfinite(mean) else ""
-            parts.append(f"{m} {peak * 1e3:.3g} mV{shown}")
-        self.peak[spec.index] = max(ratios, default=math.nan)
-        row = _row(self.study, spec, reader=reader)
-        text = "MVC reference (not evidence): peak envelope " + ", ".join(parts)
-        row["flags"] = "; ".join(filter(None, [text, row["flags"]]))
-        return row
-
-    def summary(self, left: dict[int, dict]) -> list[str]:
-        """One line counting the fast trials excluded for muscle activity (none: no line)."""
-        fast = [t for t in self.study.trials if t.kind == "fast" and t.index in self.peak]
-        out = [t for t in fast if left.get(t.index, {}).get("status") == STATUS_EXCLUDED]
-        if not out:
-            return []
-        return [
-            (
-                f"{self.study.path}: {len(out)} of {len(fast)} fast trials with EMG excluded for "
-                'muscle activity ([emg] on_activity = "exclude"); trials.csv keeps them with '
-                'status "excluded" and the reason in flags'
-            )
-        ]
-
-    def traces(self) -> pd.DataFrame:
-        """The fast trials' envelopes for figures (:data:`EMG_TRACE_COLUMNS`)."""
-        status = {False: STATUS_OK, True: "flagged" if self.action == "flag" else STATUS_EXCLUDED}
-        parts = []
-        for spec, check in self.checks:
-            trace = check.trace()
-            n = len(trace["time"])
-            parts.append(
-                {
-                    "condition": np.full(n, spec.condition, dtype=object),
-                    "trial": np.full(n, _relative(spec.file, self.study.base_dir), dtype=object),
-                    **trace,
-                    "active": trace["active"].astype(int),
-                    "status": np.full(n, status[check.active], dtype=object),
-                }
-            )
-        if not parts:
-            return pd.DataFrame(columns=EMG_TRACE_COLUMNS)
-        return pd.DataFrame(
-            {c: np.concatenate([p[c] for p in parts]) for c in EMG_TRACE_COLUMNS},
-            columns=EMG_TRACE_COLUMNS,
-        )
-
-    def stop(self, spec: TrialSpec, check: ActivityCheck) -> None:
-        """With ``on_activity = "stop"``, an active trial refuses the study in one line."""
-        if check.active and self.action == "stop":
-            reason = (
-                f"{check.describe()}; the muscle was not relaxed "
-                '([emg] on_activity = "stop"; "exclude" leaves such trials out)'
-            )
-            raise StudyRefused(
-                f"{spec.file}: {reason}",
-                refused={_relative(spec.file, self.study.base_dir): reason},
-            )
-
-    def fast(self, spec: TrialSpec, ds: xr.Dataset, est: InertiaEstimate) -> ActivityCheck:
-        """A fast trial's check (its ``emg_peak_ratio`` kept)."""
-        deceleration = None
-        if est.deceleration_start is not None and est.deceleration_end is not None:
-            deceleration = (est.deceleration_start, est.deceleration_end)
-        check = check_fast(
-            ds,
-            self.rest,
-            self.settings,
-            window=(est.window_start, est.window_end),
-            deceleration=deceleration,
-            velocity=est.velocity,
-            mvc=self.mvc,
-        )
-        self.peak[spec.index] = check.peak_ratio
-        self.checks.append((spec, check))
-        return check
-
-    def sweep(
-        self, spec: TrialSpec, ds: xr.Dataset
-    ) -> tuple[xr.Dataset, tuple[str, ...], ActivityCheck]:
-        """A quasi-static sweep's check: the trial to fit, its flag, and the check.
-
-        With ``"exclude"``, the trial to fit has its active stretches cut out.
-        """
-        check = check_sweep(ds, self.rest, self.settings, mvc=self.mvc)
-        self.peak[spec.index] = check.peak_ratio
-        if not check.active or self.action == "stop":
-            return ds, (), check
-        text = check.describe()
-        if self.action == "exclude":
-            time = np.asarray(ds["time"].values)
-            keep = check.cut(time)
-            ds = ds.isel(time=np.flatnonzero(keep))
-            text += f"; {int((~keep).sum())} samples cut out of the fit"
-        return ds, (text,), check
