@@ -384,3 +384,48 @@ def test_a_full_disk_is_one_line_and_loses_nothing(tmp_path, monkeypatch):
     )
     assert "Traceback" not in err
     assert snapshot(tmp_path) == before  # the staging folder gone, the outputs as they were
+
+
+@pytest.fixture(scope="module")
+def with_emg(tmp_path_factory):
+    """A one-posture living study whose trials record biceps and triceps EMG."""
+    from inertiafit.simulate.emg import EmgSimulation
+
+    root = tmp_path_factory.mktemp("emg36") / "study"
+    simulate_living_study(root, seed=3, postures="one", trials_per_speed=2, emg=EmgSimulation())
+    return root
+
+
+def _scale_channel(manifest: Path, factor: float) -> None:
+    for path in sorted((manifest.parent / "data").glob("*.csv")):
+        frame = pd.read_csv(path)
+        if "biceps" in frame:
+            frame["biceps"] *= factor
+            frame.to_csv(path, index=False)
+
+
+def test_a_dead_emg_channel_is_named_with_its_file(with_emg, tmp_path):
+    # it was "rest.biceps: expected a level > 0 V and an SD >= 0 V, got (0.0, 0.0)"
+    manifest = copy_of(with_emg, tmp_path)
+    _scale_channel(manifest, 0.0)
+    run_refused(
+        manifest,
+        tmp_path,
+        r"data/B_upright_rest_1\.csv: EMG channel 'biceps' is flat \(0 V over ",
+        r"a dead or unplugged electrode",
+    )
+
+
+def test_emg_in_microvolts_among_volts_is_said(with_emg, tmp_path):
+    # one channel written in uV where the manifest says V: its verdicts stand (each channel
+    # against its own rest level), and the units are said; the study as written says nothing
+    manifest = copy_of(with_emg, tmp_path)
+    clean = process_study(load_study(manifest))
+    assert not any("EMG channels" in w for w in clean.warnings)
+    _scale_channel(manifest, 1e6)
+    processed = process_study(load_study(manifest))
+    said = [w for w in processed.warnings if "EMG channels 'biceps' and 'triceps'" in w]
+    assert len(said) == 1
+    assert "1e+06 times apart" in said[0]
+    assert "uV read as V?" in said[0]
+    pd.testing.assert_series_equal(processed.trials["status"], clean.trials["status"])

@@ -23,7 +23,7 @@ over the muscles, in the windows checked.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -273,6 +273,7 @@ def study_rest_levels(
 
     rest_envs = [(ds, _envelopes(ds, settings)) for ds in rest_trials if "emg" in ds]
     baseline = _quietest(rest_envs, settings)
+    _refuse_flat(baseline, name_of)
     per_muscle: dict[str, list[tuple[float, float]]] = {}
     for ds, env in rest_envs:
         parts, table = _quiet_parts(ds, env, baseline, settings)
@@ -297,6 +298,7 @@ def study_rest_levels(
         sources[m] = f"{len(pairs)} rest trial{'s' if len(pairs) > 1 else ''}"
     sweep_envs = [(ds, _envelopes(ds, settings)) for ds in sweeps if "emg" in ds]
     quiet = {m: q for m, q in _quietest(sweep_envs, settings).items() if m not in levels}
+    _refuse_flat(quiet, name_of)
     for m, (mean, sd, source, start, end) in quiet.items():
         levels[m] = (mean, sd)
         sources[m] = (
@@ -308,7 +310,46 @@ def study_rest_levels(
             else "no rest trial records it"
         )
         notes.append(f"EMG channel {m!r}: {why}; its rest level is {sources[m]}")
+    notes.extend(_unit_spread(levels))
     return RestLevels(levels, sources), notes
+
+
+#: A rest level (V, the envelope's mean) at or below this is a flat channel: an amplifier's own
+#: noise is 0.1-1 uV RMS referred to its input, so even a bare one reads 1000 times more.
+DEAD_LEVEL = 1e-9
+#: Rest levels of one study's channels this many times apart are in different units (uV among
+#: V is 1e6; muscles and electrodes differ by 10 at most).
+UNIT_SPREAD = 1e3
+
+
+def _refuse_flat(
+    quiet: Mapping[str, tuple[float, float, str, float, float]], name_of: Callable[[str], str]
+) -> None:
+    """Refuse a channel whose quietest stretch is flat (:data:`DEAD_LEVEL`), naming the file."""
+    for m, (mean, _, source, start, end) in quiet.items():
+        if not mean > DEAD_LEVEL:
+            raise InputError(
+                f"{name_of(source)}: EMG channel {m!r} is flat ({mean:.3g} V over {start:.2f}-"
+                f"{end:.2f} s): a dead or unplugged electrode, or a column of zeros; record it "
+                "again or leave it out of the [emg] columns"
+            )
+
+
+def _unit_spread(levels: Mapping[str, tuple[float, float]]) -> list[str]:
+    """A warning line when the channels' rest levels are units apart (:data:`UNIT_SPREAD`)."""
+    if len(levels) < 2:
+        return []
+    low = min(levels, key=lambda m: levels[m][0])
+    high = max(levels, key=lambda m: levels[m][0])
+    spread = levels[high][0] / levels[low][0]
+    if spread < UNIT_SPREAD:
+        return []
+    return [
+        f"EMG channels {high!r} and {low!r} rest at levels {spread:.2g} times apart "
+        f"({levels[high][0]:.3g} V and {levels[low][0]:.3g} V): one is in other units (uV "
+        "read as V?); each channel is checked against its own rest level, so the verdicts "
+        "stand, but check the [emg] unit and the channels' recording"
+    ]
 
 
 def _peak_ratio(
