@@ -344,12 +344,13 @@ def _unit_spread(levels: Mapping[str, tuple[float, float]]) -> list[str]:
     spread = levels[high][0] / levels[low][0]
     if spread < UNIT_SPREAD:
         return []
-    return [
+    line = (
         f"EMG channels {high!r} and {low!r} rest at levels {spread:.2g} times apart "
         f"({levels[high][0]:.3g} V and {levels[low][0]:.3g} V): one is in other units (uV "
         "read as V?); each channel is checked against its own rest level, so the verdicts "
         "stand, but check the [emg] unit and the channels' recording"
-    ]
+    )
+    return [line]
 
 
 def _peak_ratio(
