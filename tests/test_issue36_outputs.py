@@ -132,6 +132,26 @@ def test_a_subfolder_without_a_marker_is_still_refused(base, results, tmp_path):
     )
 
 
+def test_what_a_killed_export_left_in_results_is_named_as_such(base, results, tmp_path):
+    # an export into results/exp killed outright leaves .exp.new-XXXXXXXX/ in results: it was
+    # named "not written by inertiafit"; it is named as what it is, with what to do
+    out = results_copy(results, tmp_path)
+    (out / ".exp.new-abcd1234").mkdir()
+    (out / ".exp.new-abcd1234" / "model.json").write_text("{}")
+    argv = ["run", str(base / "study.toml"), "--out", str(out)]
+    refused(
+        argv,
+        tmp_path,
+        rf"--out: folder {re.escape(str(out))} holds \.exp\.new-abcd1234/, left by a run into "
+        rf"{re.escape(str(out / 'exp'))} that was killed; run that command again",
+    )
+    # negative control: a hidden folder of the user's is still not inertiafit's
+    shutil.rmtree(out / ".exp.new-abcd1234")
+    (out / ".mine").mkdir()
+    (out / ".mine" / "x.txt").write_text("x")
+    refused(argv, tmp_path, r"holds \.mine/, which inertiafit did not write")
+
+
 # == a run killed by SIGKILL ===================================================================
 
 

@@ -185,8 +185,16 @@ def check_replaceable(out: str | Path) -> None:
                 check_replaceable(out / foreign[0])  # names what in it is not inertiafit's
                 nested.append(foreign[0])
                 continue
+            found = (foreign or [entry])[0]
+            left = _LEFT_BEHIND.fullmatch(found.rstrip("/"))
+            if left:  # a run into a subfolder (an export) killed before it cleaned up
+                raise InputError(
+                    f"out: folder {out} holds {found}, left by a run into {out / left['name']} "
+                    "that was killed; run that command again (it removes it) or delete "
+                    f"{found} yourself"
+                )
             raise InputError(
-                f"out: folder {out} holds {(foreign or [entry])[0]}, which inertiafit did not "
+                f"out: folder {out} holds {found}, which inertiafit did not "
                 "write; move it out of the folder or choose a new folder"
             )
         if listed[entry] != size:
@@ -401,6 +409,11 @@ def _claim(out: str | Path, target: Path, label: str = "out: ") -> None:
         _remove_leftovers(target)
         return
     raise _held(out, lock, "", label)
+
+
+#: What a run into ``<name>`` leaves beside it when killed outright: its staging folder and
+#: its lock (:func:`_leftovers`), as the entries of the parent folder they sit in.
+_LEFT_BEHIND = re.compile(r"\.(?P<name>.+)\.(?:(?:new|draw)-[a-z0-9_]{8}|lock)")
 
 
 def _leftovers(target: Path) -> list[Path]:
