@@ -11,6 +11,10 @@ Cases answered in depth elsewhere are named here with the test that holds them:
   (``test_manifest_living.py``, case "stiffness per degree");
 - a manual window over the whole speed-up and slow-down, refused as "a stretch of constant
   speed": taken (``test_plausibility.py::test_a_manual_window_over_the_whole_move_is_taken``);
+- inputs told what is wrong with them (time stamps of 1e12 s, a 10 Hz recording, a drifting
+  rest angle, the sampler's warnings with two fast trials): ``test_issue36_inputs.py``;
+- outputs (export's folder, a killed run's staging folder, SEs of 1e-300, gravity 1e300):
+  ``test_issue36_outputs.py``;
 - one fast trial written with the other sign, told that flipping "would mix signs": told its
   ``torque_sign`` (``test_diagnostics.py::test_one_file_written_with_the_other_sign_is_told_its_torque_sign``).
 """
