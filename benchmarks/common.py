@@ -180,6 +180,17 @@ def binomial_interval(k: int, n: int) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
+def _truth_and_priors(rng, nominal: dict) -> tuple[dict, dict]:
+    """Each body's truth drawn uniformly from the +-50 % box around its nominal values, and
+    the priors' nominal values (``simulate_living_study``'s ``bodies`` and ``priors``)."""
+    truth = {b: tuple(v * rng.uniform(0.5, 1.5) for v in nom) for b, nom in nominal.items()}
+    priors = {
+        b: {"mass": v[0], "radius_of_gyration": v[1], "com_distance": v[2]}
+        for b, v in nominal.items()
+    }
+    return truth, priors
+
+
 def living_shank_bodies(rng) -> tuple[dict, dict]:
     """A seated knee study's bodies: ``(truth, priors)`` drawn from ``rng``.
 
@@ -193,12 +204,7 @@ def living_shank_bodies(rng) -> tuple[dict, dict]:
         "attachment": (1.8 * rng.uniform(0.8, 1.2), 0.10 * rng.uniform(0.8, 1.2), 0.20),
         "shank": (4.2 * rng.uniform(0.7, 1.3), 0.17 * rng.uniform(0.8, 1.2), 0.26),
     }
-    truth = {b: tuple(v * rng.uniform(0.5, 1.5) for v in nom) for b, nom in nominal.items()}
-    priors = {
-        b: {"mass": v[0], "radius_of_gyration": v[1], "com_distance": v[2]}
-        for b, v in nominal.items()
-    }
-    return truth, priors
+    return _truth_and_priors(rng, nominal)
 
 
 def living_forearm_bodies(rng) -> tuple[dict, dict]:
@@ -213,9 +219,4 @@ def living_forearm_bodies(rng) -> tuple[dict, dict]:
         "attachment": (2.91 * rng.uniform(0.8, 1.2), 0.13 * rng.uniform(0.8, 1.2), 0.225),
         "forearm": (1.5 * rng.uniform(0.7, 1.3), 0.08 * rng.uniform(0.8, 1.2), 0.15),
     }
-    truth = {b: tuple(v * rng.uniform(0.5, 1.5) for v in nom) for b, nom in nominal.items()}
-    priors = {
-        b: {"mass": v[0], "radius_of_gyration": v[1], "com_distance": v[2]}
-        for b, v in nominal.items()
-    }
-    return truth, priors
+    return _truth_and_priors(rng, nominal)
