@@ -53,8 +53,8 @@ def sd_band(n: int, level: float = LEVEL) -> tuple[float, float]:
 
 def elbow_basis():
     """The shipped elbow prior as the static fit's basis (60 deg at the device's 0)."""
-    from inertiafit.io.manifest import PASSIVE_ENTRIES, PassivePrior
-    from inertiafit.io.shipped import load_passive_prior
+    from inertiafit.io.manifest import PassivePrior
+    from inertiafit.io.shipped import PASSIVE_ENTRIES, load_passive_prior
     from inertiafit.processing.living import passive_basis
 
     shipped = load_passive_prior("elbow")

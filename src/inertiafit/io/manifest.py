@@ -103,15 +103,13 @@ from typing import Any
 import xarray as xr
 
 from inertiafit._checks import (
-    check_finite,
     check_gravity,
     check_increasing_pair,
-    check_interval,
     check_path,
     check_positive,
 )
 from inertiafit.errors import InputError
-from inertiafit.io.emg import EmgSettings, read_emg_settings
+from inertiafit.io.emg import EmgSettings
 from inertiafit.io.readers import (
     available_formats,
     check_calibration,
@@ -122,17 +120,29 @@ from inertiafit.io.readers import (
 )
 from inertiafit.io.readers.registry import carries_emg, recognised_format
 from inertiafit.io.readers.validation import check_emg
-from inertiafit.io.shipped import (
-    CURVE_JOINTS,
-    PASSIVE_ENTRIES,
-    check_passive_entry,
-    load_passive_prior,
+from inertiafit.io.sections import SECTIONS, SectionContext
+from inertiafit.io.sections.base import as_table as _table
+from inertiafit.io.sections.base import check_name as _check_name
+from inertiafit.io.sections.base import fail as _fail
+from inertiafit.io.sections.base import number as _number
+from inertiafit.io.sections.calibration import (
+    CALIBRATION_KEYS,
+    MAX_TORQUE_GAIN_SD,
+    Calibration,
 )
+from inertiafit.io.sections.calibration import read_lag as _lag
+from inertiafit.io.sections.passive import PASSIVE_KEYS, PassivePrior, read_passive
+from inertiafit.io.sections.postures import (
+    DEFAULT_GRAVITY_ROTATION_SD,
+    POSTURE_KEYS,
+    Posture,
+    read_postures,
+)
+from inertiafit.io.sections.postures import posture_name as _posture_name
 from inertiafit.io.trial import apply_torque_sign
 from inertiafit.io.units import unit_factor
 from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
-from inertiafit.passive import JOINTS
 from inertiafit.physics import GRAVITY
 
 __all__ = [
@@ -170,30 +180,13 @@ KINDS = ("quasi-static", "fast", "rest", "mvc")
 #: What a trial that cannot be read or processed does to the study: stop it (the default) or be
 #: skipped, listed in ``trials.csv``, the warnings and ``report.html``.
 ON_TRIAL_ERROR = ("stop", "skip")
-TOP_KEYS = (
-    "name",
-    "description",
-    "gravity",
-    "bodies",
-    "defaults",
-    "trials",
-    "on_trial_error",
-    "calibration",
-    "passive",
-    "postures",
-    "emg",
-)
+#: The manifest's own keys; each registered section (:data:`inertiafit.io.sections.SECTIONS`)
+#: adds its table's name (:func:`top_keys`).
+_OWN_KEYS = ("name", "description", "gravity", "bodies", "defaults", "trials", "on_trial_error")
+#: Every top-level key, the sections' included (as at import: a section registered later counts
+#: in :func:`top_keys`).
+TOP_KEYS = (*_OWN_KEYS, *SECTIONS)
 BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES, "living")
-#: Keys of the ``[passive]`` table: the living body's joint, where the device's zero sits on it,
-#: and overrides of the joint's shipped prior (``priors/passive/<joint>.toml``).
-PASSIVE_KEYS = ("joint", "joint_angle_at_zero", "curve", *PASSIVE_ENTRIES)
-#: ``[passive] curve``: the passive curve shaped by the data around the prior file's (a smooth
-#: part, the default) or the prior file's fixed shape alone (to compare with).
-PASSIVE_CURVES = ("smooth", "fixed")
-#: Keys of a ``[postures.<name>]`` table (deg).
-POSTURE_KEYS = ("gravity_rotation", "gravity_rotation_sd", "axis_tilt")
-#: A posture's ``gravity_rotation_sd`` (deg) when the manifest gives none.
-DEFAULT_GRAVITY_ROTATION_SD = 2.0
 #: Keys of a measured quantity's table (``[bodies.<name>] mass`` or ``com_distance``: the
 #: registry :data:`inertiafit.measured.MEASURED_QUANTITIES`).
 MEASURED_KEYS = ("value", "sd", "resolution", "unit")
@@ -212,13 +205,6 @@ DEFAULT_KEYS = (
     "posture",
     "emg",
 )
-#: Keys of the top-level ``[calibration]`` table (:class:`Calibration`).
-CALIBRATION_KEYS = ("torque_gain_sd", "angle_offset_sd", "lag", "lag_bounds", "max_lag_spread")
-#: Largest lag (s) a manifest may state or search: a lag is milliseconds, not seconds.
-_MAX_LAG = 1.0
-#: Largest relative SD of the torque gain (``[calibration] torque_gain_sd``) the model takes:
-#: beyond 50 % a "calibration" is no calibration.
-MAX_TORQUE_GAIN_SD = 0.5
 TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *_MOUNTING_KEYS, *DEFAULT_KEYS)
 
 
@@ -251,121 +237,6 @@ class BodySpec:
     ideal: dict[str, Any] | None = None
     measured: dict[str, tuple[float, float]] = field(default_factory=dict)
     living: bool = False
-
-
-@dataclass(frozen=True)
-class Posture:
-    """One ``[postures.<name>]`` table: how a setup turns gravity about the device's axis.
-
-    Attributes
-    ----------
-    name : str
-        The key under ``[postures]``.
-    gravity_rotation : float
-        ``r_p`` (deg): the rotation of gravity about the axis against the posture with 0; the
-        gravity phase of every body mounted becomes ``phi + r_p``.
-    gravity_rotation_sd : float
-        Its prior SD (deg), default 2; ``math.inf`` when the manifest says ``"free"`` (fitted).
-    axis_tilt : float
-        ``t_p`` (deg, 0 to 90): the axis's tilt from horizontal; the gravity moment is
-        multiplied by ``cos(t_p)`` (90: a vertical axis, motion in the horizontal plane, no
-        gravity moment). Default 0.
-    """
-
-    name: str
-    gravity_rotation: float
-    gravity_rotation_sd: float = DEFAULT_GRAVITY_ROTATION_SD
-    axis_tilt: float = 0.0
-
-
-@dataclass(frozen=True)
-class PassivePrior:
-    """The ``[passive]`` table: the living body's joint and the priors of its passive model.
-
-    The joint's shipped prior (``priors/passive/<joint>.toml``,
-    :func:`inertiafit.io.shipped.load_passive_prior`) with the manifest's overrides merged in.
-    Pairs are ``(mean, sd)`` of a normal prior (not truncated: the fit integrates the passive
-    coefficients out in closed form; the means of moments, damping, hysteresis
-    and the curve's scale are non-negative).
-
-    Attributes
-    ----------
-    joint : {"elbow", "knee", "ankle", "generic"}
-        Picks the prior file (and, for the knee and the ankle, the literature curve ``P0``).
-    joint_angle_at_zero : float
-        The anatomical joint angle (deg, flexion positive; the ankle's plantarflexion) at the
-        device's angle 0: joint angle = ``joint_angle_at_zero`` + device angle.
-    stiffness : (float, float)
-        ``k`` (N m/rad), the linear spring (for the knee and the ankle: around the curve).
-    stop_moment : (float, float)
-        ``a_lo``, ``a_hi`` (N m), each end stop's moment at its range end.
-    stop_width : float
-        ``w`` (deg), the stops' typical e-folding width (each stop is fitted as two
-        exponentials, ``w / sqrt(2)`` and ``w sqrt(2)`` wide).
-    range : (float, float)
-        ``(theta_lo, theta_hi)`` (deg), the joint angles of the range ends, lo < hi.
-    curve_scale : (float, float) or None
-        ``s``, which multiplies the literature curve; ``None`` for the elbow and a generic
-        joint (no curve).
-    damping : (float, float)
-        ``b`` (N m s/rad), viscous damping.
-    hysteresis : (float, float)
-        ``h`` (N m), a moment against the direction of motion.
-    sources : dict of str to str
-        Entry -> where its number comes from: the prior file's citation, or ``"manifest"``
-        for an override.
-    curve : {"smooth", "fixed"}
-        ``"smooth"`` (default): the curve of the prior file plus a smooth part shaped by the
-        data (a Gaussian process in the joint angle); ``"fixed"``: the prior file's shape alone.
-    """
-
-    joint: str
-    joint_angle_at_zero: float
-    stiffness: tuple[float, float]
-    stop_moment: tuple[float, float]
-    stop_width: float
-    range: tuple[float, float]
-    curve_scale: tuple[float, float] | None
-    damping: tuple[float, float]
-    hysteresis: tuple[float, float]
-    sources: dict[str, str] = field(default_factory=dict)
-    curve: str = "smooth"
-
-
-@dataclass(frozen=True)
-class Calibration:
-    """Systematic errors of the instrument: the manifest's optional ``[calibration]`` table.
-
-    Attributes
-    ----------
-    torque_gain_sd : float
-        Relative standard deviation of the torque channel's gain (0.01 = 1 %), from the
-        manufacturer's specification or a calibration certificate. A gain error multiplies
-        every inertia and gravity moment of the study together. Default 0: not included (the
-        reports say so in one line).
-    angle_offset_sd : float
-        Standard deviation (deg) of the angle channel's zero. Accepted so that a lab can
-        declare it, but it changes nothing: an angle offset ``d`` turns the gravity model
-        ``M_g sin(theta + phi)`` into ``M_g sin(theta + d + phi)``, which the fitted phase
-        absorbs exactly (``phi' = phi + d``), and the inertia does not depend on the angle's
-        zero. Default 0.
-    lag : float or "estimate"
-        Seconds the torque channel lags the angle and velocity channels. ``"estimate"`` (the
-        default): estimated in every fast trial
-        (:func:`inertiafit.processing.lag.estimate_lag`); a number fixes it for every trial
-        (a trial's own ``lag`` key, or ``[defaults] lag``, still wins).
-    lag_bounds : (float, float)
-        Search range (s) of the estimated lag, lower < upper.
-    max_lag_spread : float
-        Seconds by which a trial's estimated lag may differ from the study's median before it
-        is flagged (more, if its own standard error is larger: ``3 x lag_se``).
-    """
-
-    torque_gain_sd: float = 0.0
-    angle_offset_sd: float = 0.0
-    lag: float | str = "estimate"
-    lag_bounds: tuple[float, float] = (-0.02, 0.02)
-    max_lag_spread: float = 0.001
 
 
 @dataclass(frozen=True)
@@ -504,6 +375,9 @@ class Study:
         posture with no gravity rotation).
     emg : EmgSettings or None
         The ``[emg]`` table (:mod:`inertiafit.io.emg`); ``None`` when the manifest has none.
+    sections : dict of str to object
+        What every registered section's reader returned (:data:`inertiafit.io.sections.SECTIONS`),
+        by its table's name: the tables above again, and any section added since.
     """
 
     name: str
@@ -518,6 +392,7 @@ class Study:
     passive: PassivePrior | None = None
     postures: dict[str, Posture] = field(default_factory=dict)
     emg: EmgSettings | None = None
+    sections: dict[str, Any] = field(default_factory=dict)
 
     @property
     def living_body(self) -> str:
@@ -625,92 +500,6 @@ def file_sha256(path: str | Path) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-def _fail(where: str, message: str) -> InputError:
-    return InputError(f"{where}: {message}")
-
-
-def _number(value: object, *, where: str, what: str) -> float:
-    """A finite number (not a bool), else a one-line error saying ``what`` was expected."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise _fail(where, f"expected {what}, got {value!r}")
-    return float(value)
-
-
-def _lag(value: object, *, where: str) -> float:
-    lag = _number(value, where=where, what="a lag in seconds (0.003 = 3 ms)")
-    if abs(lag) >= _MAX_LAG:
-        raise _fail(where, f"a lag in seconds must be below {_MAX_LAG:g} s, got {value!r}")
-    return lag
-
-
-def _calibration(value: object, *, where: str) -> Calibration:
-    """Check the top-level ``[calibration]`` table."""
-    here = f"{where}: calibration"
-    table = _table(value, where=here, what="torque_gain_sd, angle_offset_sd, lag, ...")
-    for key in table:
-        if key not in CALIBRATION_KEYS:
-            raise _fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(CALIBRATION_KEYS)})")
-    out: dict[str, Any] = {}
-    if "torque_gain_sd" in table:
-        sd = _number(
-            table["torque_gain_sd"],
-            where=f"{here}.torque_gain_sd",
-            what="a relative SD (0.01 = 1 %)",
-        )
-        if not 0 <= sd < MAX_TORQUE_GAIN_SD:
-            raise _fail(
-                f"{here}.torque_gain_sd",
-                f"expected a relative SD in [0, {MAX_TORQUE_GAIN_SD:g}) (0.01 = 1 %), "
-                f"got {table['torque_gain_sd']!r}",
-            )
-        out["torque_gain_sd"] = sd
-    if "angle_offset_sd" in table:
-        sd = _number(
-            table["angle_offset_sd"], where=f"{here}.angle_offset_sd", what="an SD in deg"
-        )
-        if sd < 0:
-            raise _fail(f"{here}.angle_offset_sd", f"expected an SD >= 0 (deg), got {sd!r}")
-        out["angle_offset_sd"] = sd
-    if "lag" in table:
-        lag = table["lag"]
-        out["lag"] = "estimate" if lag == "estimate" else _lag(lag, where=f"{here}.lag")
-    if "lag_bounds" in table:
-        bounds = table["lag_bounds"]
-        ok = (
-            isinstance(bounds, list)
-            and len(bounds) == 2
-            and all(
-                isinstance(b, int | float) and not isinstance(b, bool) and math.isfinite(b)
-                for b in bounds
-            )
-        )
-        if not ok or not bounds[0] < bounds[1]:
-            raise _fail(
-                f"{here}.lag_bounds",
-                f"expected two increasing numbers [lower, upper] in s, got {bounds!r}",
-            )
-        if max(abs(bounds[0]), abs(bounds[1])) >= _MAX_LAG:
-            raise _fail(
-                f"{here}.lag_bounds",
-                f"lags in seconds must be below {_MAX_LAG:g} s, got {bounds!r}",
-            )
-        out["lag_bounds"] = (float(bounds[0]), float(bounds[1]))
-    if "max_lag_spread" in table:
-        spread = _number(
-            table["max_lag_spread"], where=f"{here}.max_lag_spread", what="a time in seconds"
-        )
-        if spread < 0:
-            raise _fail(f"{here}.max_lag_spread", f"expected a time >= 0 (s), got {spread!r}")
-        out["max_lag_spread"] = spread
-    return Calibration(**out)
-
-
-def _table(value: object, *, where: str, what: str) -> dict[str, Any]:
-    if not isinstance(value, dict):
-        raise _fail(where, f"expected a table ({what}), got {value!r}")
-    return value
-
-
 def _torque_sign(value: object, *, where: str) -> int | str:
     if value == "motion":
         return "motion"
@@ -807,10 +596,11 @@ def load_study(path: str | Path) -> Study:
     except OSError as err:
         raise _fail(where, f"cannot read the manifest ({err.strerror or err})") from None
 
+    allowed = top_keys()
     for key in doc:
-        if key not in TOP_KEYS:
+        if key not in allowed:
             raise _fail(
-                f"{where}: {key}", f"unknown top-level key (allowed: {', '.join(TOP_KEYS)})"
+                f"{where}: {key}", f"unknown top-level key (allowed: {', '.join(allowed)})"
             )
     name = doc.get("name", path.stem)
     if not isinstance(name, str):
@@ -825,12 +615,14 @@ def load_study(path: str | Path) -> Study:
             f"{where}: on_trial_error", f'expected "stop" or "skip", got {on_trial_error!r}'
         )
 
-    calibration = _calibration(doc.get("calibration", {}), where=where)
     bodies = _bodies(doc, where=where)
     living = next((b for b, spec in bodies.items() if spec.living), "")
-    passive = _passive(doc.get("passive"), living=living, where=where)
-    postures = _postures(doc.get("postures", {}), where=where)
-    emg = read_emg_settings(doc["emg"], where=f"{where}: emg") if "emg" in doc else None
+    context = SectionContext(where=where, living=living)
+    sections = {name: s.read(doc.get(name), context) for name, s in SECTIONS.items()}
+    calibration: Calibration = sections["calibration"]
+    passive: PassivePrior | None = sections["passive"]
+    postures: dict[str, Posture] = sections["postures"]
+    emg: EmgSettings | None = sections["emg"]
     raw_defaults = _table(
         doc.get("defaults", {}), where=f"{where}: defaults", what="reader settings"
     )
@@ -927,7 +719,13 @@ def load_study(path: str | Path) -> Study:
         passive=passive,
         postures=postures,
         emg=emg,
+        sections=sections,
     )
+
+
+def top_keys() -> tuple[str, ...]:
+    """The manifest's top-level keys: its own and every registered section's table."""
+    return (*_OWN_KEYS, *SECTIONS)
 
 
 def _check_mvc(trials: list[TrialSpec], emg_table: object, *, where: str) -> None:
@@ -959,34 +757,6 @@ def _check_mvc(trials: list[TrialSpec], emg_table: object, *, where: str) -> Non
                 f"no mvc trial ({listed}) records EMG channel {missing[0]!r}, which "
                 f"trials[{t.index}] records; record every checked muscle in an mvc trial",
             )
-
-
-#: Longest body name, in UTF-8 bytes: it becomes part of file names (``corner-<body>.pdf``)
-#: and condition labels, and file systems count bytes (64 emoji are 256).
-MAX_BODY_NAME = 64
-#: Characters a body name may not hold: path separators and what Windows refuses in a file
-#: name, and ``+``/``@``, which join bodies and offsets in a condition's label.
-_BODY_NAME_FORBIDDEN = frozenset('/\\:*?"<>|+@')
-
-
-def _check_name(name: str, where: str, what: str = "body") -> None:
-    """A body's (or posture's) name must be safe as part of a file name and a condition label."""
-    shown = repr(name[:40] + ("..." if len(name) > 40 else ""))
-    bad = sorted({c for c in name if c in _BODY_NAME_FORBIDDEN or not c.isprintable()})
-    if not name.strip() or name != name.strip() or name.startswith("."):
-        why = "a name that does not start with '.' or a space and is not empty"
-    elif len(name.encode("utf-8")) > MAX_BODY_NAME:
-        size = len(name.encode("utf-8"))
-        why = (
-            f"at most {MAX_BODY_NAME} bytes in UTF-8 (it names output files), got {size} "
-            f"({len(name)} characters)"
-        )
-    elif bad:
-        listed = " ".join(repr(c) for c in bad)
-        why = f"no {listed} in a name (it names output files and condition labels)"
-    else:
-        return
-    raise _fail(where, f"{what} {shown}: expected {why}")
 
 
 def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
@@ -1036,168 +806,6 @@ def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
             name=name, prior=prior, ideal=ideal, measured=measured, living=living
         )
     return bodies
-
-
-def read_passive(value: object, *, living: str, where: str) -> PassivePrior | None:
-    """A ``[passive]`` table read as the manifest reads it (the planner's design files too).
-
-    ``living`` names the living body (``""``: none, and the table must then be absent);
-    ``where`` starts every error message.
-    """
-    return _passive(value, living=living, where=where)
-
-
-def read_postures(value: object, *, where: str) -> dict[str, Posture]:
-    """``[postures.<name>]`` tables read as the manifest reads them (design files too)."""
-    return _postures(value, where=where)
-
-
-def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:
-    """The ``[passive]`` table: the joint's shipped prior with the manifest's overrides."""
-    here = f"{where}: passive"
-    if value is None:
-        if living:
-            raise _fail(
-                here,
-                f"missing; body '{living}' is living: add a [passive] table with joint "
-                f"({', '.join(JOINTS)}) and joint_angle_at_zero (deg)",
-            )
-        return None
-    table = _table(value, where=here, what="joint = ..., joint_angle_at_zero = ...")
-    if not living:
-        raise _fail(
-            here,
-            "no body is living; mark the living one with living = true under "
-            "[bodies.<name>], or remove [passive]",
-        )
-    for key in table:
-        if key not in PASSIVE_KEYS:
-            raise _fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(PASSIVE_KEYS)})")
-    joint = table.get("joint")
-    if joint is None:
-        raise _fail(f"{here}.joint", f"missing; one of {', '.join(JOINTS)}")
-    if joint not in JOINTS:
-        raise _fail(f"{here}.joint", f"unknown joint {joint!r} (joints: {', '.join(JOINTS)})")
-    if "joint_angle_at_zero" not in table:
-        raise _fail(
-            f"{here}.joint_angle_at_zero",
-            "missing; the joint angle (deg, flexion positive) at the device's angle 0",
-        )
-    at_zero = check_interval(
-        table["joint_angle_at_zero"], f"{here}.joint_angle_at_zero", -360.0, 360.0, "deg"
-    )
-    if "curve_scale" in table and joint not in CURVE_JOINTS:
-        raise _fail(
-            f"{here}.curve_scale",
-            f"only the joints with a literature curve have one ({', '.join(CURVE_JOINTS)}), "
-            f"not '{joint}'",
-        )
-    curve = table.get("curve", "smooth")
-    if curve not in PASSIVE_CURVES:
-        raise _fail(
-            f"{here}.curve",
-            f'expected "smooth" (shaped by the data) or "fixed" (the prior file\'s shape), '
-            f"got {curve!r}",
-        )
-    shipped = load_passive_prior(joint)
-    values: dict[str, Any] = {}
-    sources: dict[str, str] = {}
-    for key in PASSIVE_ENTRIES:
-        if key in table:
-            values[key] = check_passive_entry(key, table[key], f"{here}.{key}")
-            sources[key] = "manifest"
-            if key in _PER_RADIAN and key in shipped:
-                _check_per_radian(key, values[key], shipped[key]["value"], f"{here}.{key}")
-        elif key in shipped:
-            values[key] = shipped[key]["value"]
-            sources[key] = shipped[key]["source"]
-        else:  # curve_scale of a joint without a curve
-            values[key] = None
-    return PassivePrior(
-        joint=joint, joint_angle_at_zero=at_zero, sources=sources, curve=curve, **values
-    )
-
-
-#: ``[passive]`` entries per radian, which a value per degree would make 57 times too small.
-_PER_RADIAN = ("stiffness",)
-
-
-def _check_per_radian(
-    key: str, value: tuple[float, float], shipped: tuple[float, float], where: str
-) -> None:
-    """Refuse a prior per radian that was written per degree.
-
-    Such a value is more than 20 times below the joint's shipped prior mean while, times
-    180/pi, it would sit within 2 of its SDs: a stiffness of 0.03 N m/deg written as 0.03
-    N m/rad for an elbow of 1.7 N m/rad moved the forearm's I by +170 % (issue 36).
-    """
-    mean, sd = value
-    ref_mean, ref_sd = shipped
-    per_degree = math.degrees(mean)
-    if 0 <= 20.0 * mean < ref_mean and abs(per_degree - ref_mean) <= 2.0 * ref_sd:
-        unit = PASSIVE_ENTRIES[key][0]
-        raise _fail(
-            where,
-            f"mean {mean:g} {unit} is {ref_mean / mean if mean else math.inf:.0f} times below "
-            f"the joint's prior ({ref_mean:g} +- {ref_sd:g}) and looks like a value per degree; "
-            f"give it per radian: {{ mean = {per_degree:.3g}, sd = {math.degrees(sd):.3g} }}",
-        )
-
-
-def _postures(value: object, *, where: str) -> dict[str, Posture]:
-    """The ``[postures.<name>]`` tables, in manifest order."""
-    here = f"{where}: postures"
-    raw = _table(value, where=here, what="[postures.<name>] tables")
-    out = {}
-    for name, raw_entry in raw.items():
-        _check_name(name, f"{where}: postures", "posture")
-        at = f"{here}.{name}"
-        entry = _table(raw_entry, where=at, what="gravity_rotation = deg, ...")
-        for key in entry:
-            if key not in POSTURE_KEYS:
-                raise _fail(f"{at}.{key}", f"unknown key (allowed: {', '.join(POSTURE_KEYS)})")
-        if "gravity_rotation" not in entry:
-            raise _fail(
-                f"{at}.gravity_rotation",
-                "missing; the rotation of gravity about the axis (deg) against the posture with 0",
-            )
-        rotation = check_interval(
-            entry["gravity_rotation"], f"{at}.gravity_rotation", -360.0, 360.0, "deg"
-        )
-        sd = entry.get("gravity_rotation_sd", DEFAULT_GRAVITY_ROTATION_SD)
-        if sd == "free":
-            sd = math.inf
-        elif isinstance(sd, str):
-            raise _fail(
-                f"{at}.gravity_rotation_sd",
-                f'expected an SD in deg (> 0) or "free", got {sd!r}',
-            )
-        else:
-            sd = check_positive(sd, f"{at}.gravity_rotation_sd", "deg")
-        tilt = check_finite(entry.get("axis_tilt", 0.0), f"{at}.axis_tilt", "deg")
-        if not 0.0 <= tilt <= 90.0:
-            raise _fail(
-                f"{at}.axis_tilt",
-                f"expected an angle in [0, 90] deg (0: a horizontal axis, 90: a vertical one), "
-                f"got {entry['axis_tilt']!r}",
-            )
-        out[name] = Posture(
-            name=name, gravity_rotation=rotation, gravity_rotation_sd=sd, axis_tilt=tilt
-        )
-    return out
-
-
-def _posture_name(value: object, postures: Mapping[str, Posture], *, where: str) -> str:
-    """A trial's (or ``[defaults]``) ``posture``: a name defined under ``[postures]``."""
-    if not postures:
-        raise _fail(
-            where,
-            f"no [postures] in the manifest to name; define [postures.{value}] with its "
-            "gravity_rotation, or remove posture",
-        )
-    if not isinstance(value, str) or value not in postures:
-        raise _fail(where, f"unknown posture {value!r} (postures: {', '.join(postures)})")
-    return value
 
 
 def _measured(value: object, key: str, *, where: str) -> tuple[float, float]:

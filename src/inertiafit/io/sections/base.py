@@ -1,0 +1,121 @@
+"""The manifest's tables, each read by its own section reader, in one registry.
+
+:func:`~inertiafit.io.manifest.load_study` reads the manifest's top level and its bodies, then
+every table registered here (:data:`SECTIONS`), in order: each section's reader checks its own
+keys with the one set of validators (:mod:`inertiafit._checks` and the helpers below) and
+returns what :class:`~inertiafit.io.manifest.Study` keeps of it (``Study.sections[name]``, and
+the named attribute of the sections the study has always had). A new table is one module: a
+reader registered with :func:`register_section`, imported by :mod:`inertiafit.io.sections`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from inertiafit.errors import InputError
+
+__all__ = [
+    "BODY_NAME_FORBIDDEN",
+    "MAX_BODY_NAME",
+    "SECTIONS",
+    "Section",
+    "SectionContext",
+    "as_table",
+    "check_name",
+    "fail",
+    "number",
+    "register_section",
+]
+
+
+@dataclass(frozen=True)
+class SectionContext:
+    """What a section's reader may need of the rest of the manifest.
+
+    ``where``: the manifest's path, starting every message; ``living``: the living body's
+    name (``""``: none), known once the bodies are read.
+    """
+
+    where: str
+    living: str = ""
+
+
+@dataclass(frozen=True)
+class Section:
+    """A top-level table of the manifest and its reader.
+
+    ``read(value, context)`` gets the table (``None`` when the manifest has none) and returns
+    what the study keeps of it; ``field`` is the :class:`~inertiafit.io.manifest.Study`
+    attribute it fills (``""``: only ``Study.sections``); ``order`` when it is read among the
+    sections (smaller first: a section whose checks need another's comes after it).
+    """
+
+    name: str
+    read: Callable[[object, SectionContext], Any]
+    field: str = ""
+    order: int = 100
+
+
+#: Every section, by its table's name, in the order they are read.
+SECTIONS: dict[str, Section] = {}
+
+
+def register_section(section: Section) -> Section:
+    """Add a section to :data:`SECTIONS` (one reader per table), kept in reading order."""
+    if section.name in SECTIONS:
+        msg = f"section [{section.name}] has a reader already"
+        raise ValueError(msg)
+    ordered = sorted([*SECTIONS.values(), section], key=lambda s: s.order)
+    SECTIONS.clear()
+    SECTIONS.update((s.name, s) for s in ordered)
+    return section
+
+
+def fail(where: str, message: str) -> InputError:
+    """The one-line error of a manifest key: ``<where>: <message>``."""
+    return InputError(f"{where}: {message}")
+
+
+def number(value: object, *, where: str, what: str) -> float:
+    """A finite number (not a bool), else a one-line error saying ``what`` was expected."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise fail(where, f"expected {what}, got {value!r}")
+    return float(value)
+
+
+def as_table(value: object, *, where: str, what: str) -> dict[str, Any]:
+    """A TOML table, else a one-line error saying ``what`` it should hold."""
+    if not isinstance(value, dict):
+        raise fail(where, f"expected a table ({what}), got {value!r}")
+    return value
+
+
+#: Longest body name, in UTF-8 bytes: it becomes part of file names (``corner-<body>.pdf``)
+#: and condition labels, and file systems count bytes (64 emoji are 256).
+MAX_BODY_NAME = 64
+#: Characters a body name may not hold: path separators and what Windows refuses in a file
+#: name, and ``+``/``@``, which join bodies and offsets in a condition's label.
+BODY_NAME_FORBIDDEN = frozenset('/\\:*?"<>|+@')
+
+
+def check_name(name: str, where: str, what: str = "body") -> None:
+    """A body's (or posture's) name must be safe as part of a file name and a condition label."""
+    shown = repr(name[:40] + ("..." if len(name) > 40 else ""))
+    bad = sorted({c for c in name if c in BODY_NAME_FORBIDDEN or not c.isprintable()})
+    if not name.strip() or name != name.strip() or name.startswith("."):
+        why = "a name that does not start with '.' or a space and is not empty"
+    elif len(name.encode("utf-8")) > MAX_BODY_NAME:
+        size = len(name.encode("utf-8"))
+        why = (
+            f"at most {MAX_BODY_NAME} bytes in UTF-8 (it names output files), got {size} "
+            f"({len(name)} characters)"
+        )
+    elif bad:
+        listed = " ".join(repr(c) for c in bad)
+        why = f"no {listed} in a name (it names output files and condition labels)"
+    else:
+        return
+    raise fail(where, f"{what} {shown}: expected {why}")
