@@ -25,7 +25,7 @@ kind = "quasi-static"
 
 
 def test_the_registry_holds_the_tables_in_reading_order():
-    assert list(SECTIONS) == ["calibration", "passive", "postures", "emg"]
+    assert list(SECTIONS) == ["bodies", "calibration", "passive", "postures", "emg"]
     assert set(SECTIONS) <= set(TOP_KEYS)
     for name, section in SECTIONS.items():
         module = section.read.__module__
@@ -40,6 +40,8 @@ def test_a_table_has_one_reader():
 def test_the_study_keeps_every_section(tmp_path):
     (tmp_path / "a.csv").write_text("time,angle,velocity,torque\n")
     study = load_study(_manifest(tmp_path, "[calibration]\ntorque_gain_sd = 0.01\n" + RIGID))
+    assert study.sections["bodies"] is study.bodies
+    assert list(study.bodies) == ["attachment"]
     assert study.sections["calibration"] is study.calibration
     assert study.calibration.torque_gain_sd == 0.01
     assert study.sections["passive"] is None

@@ -93,7 +93,6 @@ recorded in.
 from __future__ import annotations
 
 import hashlib
-import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -122,9 +121,9 @@ from inertiafit.io.readers.registry import carries_emg, recognised_format
 from inertiafit.io.readers.validation import check_emg
 from inertiafit.io.sections import SECTIONS, SectionContext
 from inertiafit.io.sections.base import as_table as _table
-from inertiafit.io.sections.base import check_name as _check_name
 from inertiafit.io.sections.base import fail as _fail
 from inertiafit.io.sections.base import number as _number
+from inertiafit.io.sections.bodies import BODY_KEYS, MEASURED_KEYS, BodySpec
 from inertiafit.io.sections.calibration import (
     CALIBRATION_KEYS,
     MAX_TORQUE_GAIN_SD,
@@ -141,7 +140,6 @@ from inertiafit.io.sections.postures import (
 from inertiafit.io.sections.postures import posture_name as _posture_name
 from inertiafit.io.trial import apply_torque_sign
 from inertiafit.io.units import unit_factor
-from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY
 
@@ -182,14 +180,11 @@ KINDS = ("quasi-static", "fast", "rest", "mvc")
 ON_TRIAL_ERROR = ("stop", "skip")
 #: The manifest's own keys; each registered section (:data:`inertiafit.io.sections.SECTIONS`)
 #: adds its table's name (:func:`top_keys`).
-_OWN_KEYS = ("name", "description", "gravity", "bodies", "defaults", "trials", "on_trial_error")
+_OWN_HEAD = ("name", "description", "gravity")
+_OWN_TAIL = ("defaults", "trials", "on_trial_error")
 #: Every top-level key, the sections' included (as at import: a section registered later counts
 #: in :func:`top_keys`).
-TOP_KEYS = (*_OWN_KEYS, *SECTIONS)
-BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES, "living")
-#: Keys of a measured quantity's table (``[bodies.<name>] mass`` or ``com_distance``: the
-#: registry :data:`inertiafit.measured.MEASURED_QUANTITIES`).
-MEASURED_KEYS = ("value", "sd", "resolution", "unit")
+TOP_KEYS = (*_OWN_HEAD, *SECTIONS, *_OWN_TAIL)
 #: Keys of one ``added_mass`` table of a trial (SI: kg, m, m).
 ADDED_MASS_KEYS = ("mass", "com_distance", "radius_of_gyration")
 #: Keys of a trial that describe its mounting; never in ``[defaults]``.
@@ -206,37 +201,6 @@ DEFAULT_KEYS = (
     "emg",
 )
 TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *_MOUNTING_KEYS, *DEFAULT_KEYS)
-
-
-@dataclass(frozen=True)
-class BodySpec:
-    """One rigid body of the study, as the manifest states it.
-
-    Attributes
-    ----------
-    name : str
-        The key under ``[bodies]``.
-    prior : str or dict
-        Raw prior: a shipped prior's name, a path, or an inline table; resolved elsewhere
-        (:func:`inertiafit.inference.priors.load_prior`).
-    ideal : dict or None
-        Optional raw table of ideal-shape values to compare against.
-    measured : dict of str to (float, float)
-        Direct measurements of the body, ``"mass"`` (kg, a scale) and ``"com_distance"`` (m,
-        a balance point, from the joint axis in the body's own mounting): ``(value, sd)`` in
-        SI units; ``sd`` is ``resolution / sqrt(12)`` for a reading given with its
-        resolution. Empty when none.
-    living : bool
-        A living segment (``living = true``): held by a joint whose passive elastic moment,
-        damping and hysteresis (:attr:`Study.passive`) add to the moments of the conditions
-        that hold it. At most one per study. Default false: a rigid body.
-    """
-
-    name: str
-    prior: str | dict[str, Any]
-    ideal: dict[str, Any] | None = None
-    measured: dict[str, tuple[float, float]] = field(default_factory=dict)
-    living: bool = False
 
 
 @dataclass(frozen=True)
@@ -615,10 +579,12 @@ def load_study(path: str | Path) -> Study:
             f"{where}: on_trial_error", f'expected "stop" or "skip", got {on_trial_error!r}'
         )
 
-    bodies = _bodies(doc, where=where)
-    living = next((b for b, spec in bodies.items() if spec.living), "")
-    context = SectionContext(where=where, living=living)
-    sections = {name: s.read(doc.get(name), context) for name, s in SECTIONS.items()}
+    sections: dict[str, Any] = {}
+    context = SectionContext(where=where, read=sections)  # each sees those read before it
+    for table, section in SECTIONS.items():
+        sections[table] = section.read(doc.get(table), context)
+    bodies: dict[str, BodySpec] = sections["bodies"]
+    living = context.living
     calibration: Calibration = sections["calibration"]
     passive: PassivePrior | None = sections["passive"]
     postures: dict[str, Posture] = sections["postures"]
@@ -725,7 +691,7 @@ def load_study(path: str | Path) -> Study:
 
 def top_keys() -> tuple[str, ...]:
     """The manifest's top-level keys: its own and every registered section's table."""
-    return (*_OWN_KEYS, *SECTIONS)
+    return (*_OWN_HEAD, *SECTIONS, *_OWN_TAIL)
 
 
 def _check_mvc(trials: list[TrialSpec], emg_table: object, *, where: str) -> None:
@@ -757,89 +723,6 @@ def _check_mvc(trials: list[TrialSpec], emg_table: object, *, where: str) -> Non
                 f"no mvc trial ({listed}) records EMG channel {missing[0]!r}, which "
                 f"trials[{t.index}] records; record every checked muscle in an mvc trial",
             )
-
-
-def _bodies(doc: Mapping[str, Any], *, where: str) -> dict[str, BodySpec]:
-    raw = doc.get("bodies")
-    if not raw:
-        raise _fail(f"{where}: bodies", "no bodies; add a [bodies.<name>] table with a prior")
-    raw = _table(raw, where=f"{where}: bodies", what="[bodies.<name>] tables")
-    bodies: dict[str, BodySpec] = {}
-    for name, raw_entry in raw.items():
-        _check_name(name, f"{where}: bodies")
-        here = f"{where}: bodies.{name}"
-        entry = _table(raw_entry, where=here, what="prior = ...")
-        for key in entry:
-            if key not in BODY_KEYS:
-                raise _fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(BODY_KEYS)})")
-        if "prior" not in entry:
-            raise _fail(
-                f"{here}.prior",
-                "missing; give a prior name, a path to a prior file, or an inline table",
-            )
-        prior = entry["prior"]
-        if not (isinstance(prior, str) and prior.strip()) and not isinstance(prior, dict):
-            raise _fail(
-                f"{here}.prior",
-                f"expected a prior name or path (a string) or an inline table, got {prior!r}",
-            )
-        ideal = entry.get("ideal")
-        if ideal is not None:
-            ideal = _table(ideal, where=f"{here}.ideal", what="ideal-shape values")
-        measured = {
-            key: _measured(entry[key], key, where=f"{here}.{key}")
-            for key in MEASURED_QUANTITIES
-            if key in entry
-        }
-        living = entry.get("living", False)
-        if not isinstance(living, bool):
-            raise _fail(f"{here}.living", f"expected true or false, got {living!r}")
-        if living:
-            other = next((b for b, spec in bodies.items() if spec.living), None)
-            if other is not None:
-                raise _fail(
-                    f"{here}.living",
-                    f"one living body per study; '{other}' is living already (the passive "
-                    "model belongs to one joint)",
-                )
-        bodies[name] = BodySpec(
-            name=name, prior=prior, ideal=ideal, measured=measured, living=living
-        )
-    return bodies
-
-
-def _measured(value: object, key: str, *, where: str) -> tuple[float, float]:
-    """A measured quantity (:data:`MEASURED_QUANTITIES`): ``(value, sd)`` in its SI unit."""
-    measured = MEASURED_QUANTITIES[key]
-    quantity, si = measured.quantity, measured.unit
-    table = _table(
-        value, where=where, what=f"{{ value = ..., sd = ... or resolution = ..., unit = {si!r} }}"
-    )
-    for k in table:
-        if k not in MEASURED_KEYS:
-            raise _fail(f"{where}.{k}", f"unknown key (allowed: {', '.join(MEASURED_KEYS)})")
-    unit = table.get("unit", si)
-    factor = unit_factor(quantity, unit, where=f"{where}.unit")
-    if "value" not in table:
-        raise _fail(f"{where}.value", f"missing; the measured {key} ({unit})")
-    center = check_positive(table["value"], f"{where}.value", str(unit))
-    if "sd" in table and "resolution" in table:
-        raise _fail(
-            where,
-            "give sd (the measurement's SD) or resolution (the reading's step), not both",
-        )
-    if "sd" in table:
-        sd = check_positive(table["sd"], f"{where}.sd", str(unit))
-    elif "resolution" in table:
-        # A reading rounded to a step q is off by a uniform error on (-q/2, q/2): SD q/sqrt(12).
-        sd = check_positive(table["resolution"], f"{where}.resolution", str(unit))
-        sd /= math.sqrt(12.0)
-    else:
-        raise _fail(
-            f"{where}.sd",
-            f"missing; give the measurement's sd or the reading's resolution ({unit})",
-        )
-    return center * factor, sd * factor
 
 
 def _offset(value: object, *, where: str, bodies: tuple[str, ...]) -> tuple[str, float]:

@@ -1,17 +1,18 @@
 """The manifest's tables, one reader each (:mod:`.base`: :data:`SECTIONS`).
 
-``[calibration]`` (:mod:`.calibration`), ``[passive]`` (:mod:`.passive`), ``[postures]``
+``[bodies]`` (:mod:`.bodies`), ``[calibration]`` (:mod:`.calibration`), ``[passive]`` (:mod:`.passive`), ``[postures]``
 (:mod:`.postures`) and ``[emg]`` (:mod:`.emg`), read in this order (each section's ``order``)
 once the bodies are known.
 """
 
-from inertiafit.io.sections import calibration, emg, passive, postures
+from inertiafit.io.sections import bodies, calibration, emg, passive, postures
 from inertiafit.io.sections.base import SECTIONS, Section, SectionContext, register_section
 
 __all__ = [
     "SECTIONS",
     "Section",
     "SectionContext",
+    "bodies",
     "calibration",
     "emg",
     "passive",

@@ -11,8 +11,8 @@ reader registered with :func:`register_section`, imported by :mod:`inertiafit.io
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from inertiafit.errors import InputError
@@ -35,12 +35,18 @@ __all__ = [
 class SectionContext:
     """What a section's reader may need of the rest of the manifest.
 
-    ``where``: the manifest's path, starting every message; ``living``: the living body's
-    name (``""``: none), known once the bodies are read.
+    ``where``: the manifest's path, starting every message; ``read``: the sections read before
+    this one, by name (their readers' values).
     """
 
     where: str
-    living: str = ""
+    read: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def living(self) -> str:
+        """The living body's name (``""``: none), once ``[bodies]`` is read."""
+        bodies = self.read.get("bodies") or {}
+        return next((b for b, spec in bodies.items() if getattr(spec, "living", False)), "")
 
 
 @dataclass(frozen=True)
