@@ -25,11 +25,20 @@ kind = "quasi-static"
 
 
 def test_the_registry_holds_the_tables_in_reading_order():
-    assert list(SECTIONS) == ["bodies", "calibration", "passive", "postures", "emg"]
+    assert list(SECTIONS) == [
+        "bodies",
+        "calibration",
+        "passive",
+        "postures",
+        "emg",
+        "defaults",
+        "trials",
+    ]
     assert set(SECTIONS) <= set(TOP_KEYS)
     for name, section in SECTIONS.items():
         module = section.read.__module__
-        assert module == f"inertiafit.io.sections.{name}", module
+        home = "trials" if name == "defaults" else name  # [defaults] is the trials' settings
+        assert module == f"inertiafit.io.sections.{home}", module
 
 
 def test_a_table_has_one_reader():
@@ -47,6 +56,8 @@ def test_the_study_keeps_every_section(tmp_path):
     assert study.sections["passive"] is None
     assert study.sections["postures"] == {}
     assert study.sections["emg"] is None
+    assert study.sections["trials"] is study.trials
+    assert study.sections["defaults"] == {}
 
 
 def _manifest(folder, text):

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from cases import PRIORS, TRUTH
 
-import inertiafit.io.manifest as manifest_module
+import inertiafit.io.sections.trials as trials_module  # where a trial file is read
 from inertiafit.cli import main
 from inertiafit.errors import InputError
 from inertiafit.inference.evidence import condition_evidence
@@ -151,7 +151,7 @@ def test_skip_of_the_only_quasi_static_trial_is_an_error(clean_study, tmp_path):
 
 
 def test_reader_flags_reach_trials_csv_and_the_warnings(clean_study, tmp_path, monkeypatch):
-    read = manifest_module.read_trial
+    read = trials_module.read_trial
 
     def flagging_reader(path, **kwargs):
         trial = read(path, **kwargs)
@@ -159,7 +159,7 @@ def test_reader_flags_reach_trials_csv_and_the_warnings(clean_study, tmp_path, m
             trial.attrs["flags"] = [FLAG]
         return trial
 
-    monkeypatch.setattr(manifest_module, "read_trial", flagging_reader)
+    monkeypatch.setattr(trials_module, "read_trial", flagging_reader)
     processed = process_study(clean_study / "study.toml")
     flags = processed.trials.set_index("file")["flags"]
     assert flags["data/A_240_01.csv"].split("; ")[0] == FLAG

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from inertiafit.errors import InputError
@@ -36,11 +37,14 @@ class SectionContext:
     """What a section's reader may need of the rest of the manifest.
 
     ``where``: the manifest's path, starting every message; ``read``: the sections read before
-    this one, by name (their readers' values).
+    this one, by name (their readers' values); ``base``: the folder relative paths are
+    resolved against (the manifest's); ``doc``: the whole manifest as TOML read it.
     """
 
     where: str
     read: Mapping[str, Any] = field(default_factory=dict)
+    base: Path | None = None
+    doc: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def living(self) -> str:
