@@ -11,7 +11,7 @@ reader registered with :func:`register_section`, imported by :mod:`inertiafit.io
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ __all__ = [
     "Section",
     "SectionContext",
     "as_table",
+    "check_keys",
     "check_name",
     "fail",
     "number",
@@ -94,6 +95,13 @@ def number(value: object, *, where: str, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise fail(where, f"expected {what}, got {value!r}")
     return float(value)
+
+
+def check_keys(table: Mapping[str, Any], allowed: Sequence[str], *, where: str) -> None:
+    """Refuse a key of ``table`` not in ``allowed``: ``<where>.<key>: unknown key (allowed: ...)``."""
+    for key in table:
+        if key not in allowed:
+            raise fail(f"{where}.{key}", f"unknown key (allowed: {', '.join(allowed)})")
 
 
 def as_table(value: object, *, where: str, what: str) -> dict[str, Any]:

@@ -10,6 +10,7 @@ from inertiafit._checks import check_positive
 from inertiafit.io.sections.base import (
     Section,
     as_table,
+    check_keys,
     check_name,
     fail,
     register_section,
@@ -67,9 +68,7 @@ def read_bodies(raw: object, *, where: str) -> dict[str, BodySpec]:
         check_name(name, f"{where}: bodies")
         here = f"{where}: bodies.{name}"
         entry = as_table(raw_entry, where=here, what="prior = ...")
-        for key in entry:
-            if key not in BODY_KEYS:
-                raise fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(BODY_KEYS)})")
+        check_keys(entry, BODY_KEYS, where=here)
         if "prior" not in entry:
             raise fail(
                 f"{here}.prior",
@@ -113,9 +112,7 @@ def _measured(value: object, key: str, *, where: str) -> tuple[float, float]:
     table = as_table(
         value, where=where, what=f"{{ value = ..., sd = ... or resolution = ..., unit = {si!r} }}"
     )
-    for k in table:
-        if k not in MEASURED_KEYS:
-            raise fail(f"{where}.{k}", f"unknown key (allowed: {', '.join(MEASURED_KEYS)})")
+    check_keys(table, MEASURED_KEYS, where=where)
     unit = table.get("unit", si)
     factor = unit_factor(quantity, unit, where=f"{where}.unit")
     if "value" not in table:

@@ -9,6 +9,7 @@ from typing import Any
 from inertiafit.io.sections.base import (
     Section,
     as_table,
+    check_keys,
     fail,
     number,
     register_section,
@@ -80,9 +81,7 @@ def read_calibration(value: object, *, where: str) -> Calibration:
     """Check the top-level ``[calibration]`` table."""
     here = f"{where}: calibration"
     table = as_table(value, where=here, what="torque_gain_sd, angle_offset_sd, lag, ...")
-    for key in table:
-        if key not in CALIBRATION_KEYS:
-            raise fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(CALIBRATION_KEYS)})")
+    check_keys(table, CALIBRATION_KEYS, where=here)
     out: dict[str, Any] = {}
     if "torque_gain_sd" in table:
         sd = number(

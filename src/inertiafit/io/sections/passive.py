@@ -10,6 +10,7 @@ from inertiafit._checks import check_interval
 from inertiafit.io.sections.base import (
     Section,
     as_table,
+    check_keys,
     fail,
     register_section,
 )
@@ -114,9 +115,7 @@ def _passive(value: object, *, living: str, where: str) -> PassivePrior | None:
             "no body is living; mark the living one with living = true under "
             "[bodies.<name>], or remove [passive]",
         )
-    for key in table:
-        if key not in PASSIVE_KEYS:
-            raise fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(PASSIVE_KEYS)})")
+    check_keys(table, PASSIVE_KEYS, where=here)
     joint = table.get("joint")
     if joint is None:
         raise fail(f"{here}.joint", f"missing; one of {', '.join(JOINTS)}")

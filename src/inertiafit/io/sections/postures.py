@@ -10,6 +10,7 @@ from inertiafit._checks import check_finite, check_interval, check_positive
 from inertiafit.io.sections.base import (
     Section,
     as_table,
+    check_keys,
     check_name,
     fail,
     register_section,
@@ -68,9 +69,7 @@ def _postures(value: object, *, where: str) -> dict[str, Posture]:
         check_name(name, f"{where}: postures", "posture")
         at = f"{here}.{name}"
         entry = as_table(raw_entry, where=at, what="gravity_rotation = deg, ...")
-        for key in entry:
-            if key not in POSTURE_KEYS:
-                raise fail(f"{at}.{key}", f"unknown key (allowed: {', '.join(POSTURE_KEYS)})")
+        check_keys(entry, POSTURE_KEYS, where=at)
         if "gravity_rotation" not in entry:
             raise fail(
                 f"{at}.gravity_rotation",

@@ -33,6 +33,7 @@ from inertiafit.io.sections.base import (
     Section,
     SectionContext,
     as_table,
+    check_keys,
     fail,
     number,
     register_section,
@@ -327,9 +328,7 @@ def _offset(value: object, *, where: str, bodies: tuple[str, ...]) -> tuple[str,
     here = f"{where}.{body}"
     factor, unit = 1.0, "m"
     if isinstance(raw, dict):
-        for k in raw:
-            if k not in ("value", "unit"):
-                raise fail(f"{here}.{k}", "unknown key (allowed: value, unit)")
+        check_keys(raw, ("value", "unit"), where=here)
         if "value" not in raw:
             raise fail(f"{here}.value", "missing; the distance the body is moved")
         unit = raw.get("unit", "m")
@@ -354,9 +353,7 @@ def _added_masses(value: object, *, where: str) -> tuple[tuple[float, float, flo
     for j, raw in enumerate(entries):
         here = f"{where}[{j}]" if isinstance(value, list) else where
         table = as_table(raw, where=here, what="mass = kg, com_distance = m, ...")
-        for k in table:
-            if k not in ADDED_MASS_KEYS:
-                raise fail(f"{here}.{k}", f"unknown key (allowed: {', '.join(ADDED_MASS_KEYS)})")
+        check_keys(table, ADDED_MASS_KEYS, where=here)
         for k in ("mass", "com_distance"):
             if k not in table:
                 raise fail(f"{here}.{k}", f"missing ({'kg' if k == 'mass' else 'm'})")
@@ -423,9 +420,7 @@ def _trial(
 ) -> TrialSpec:
     here = f"{where}: trials[{i}]"
     entry = as_table(entry, where=here, what="file, bodies, kind, ...")
-    for key in entry:
-        if key not in TRIAL_KEYS:
-            raise fail(f"{here}.{key}", f"unknown key (allowed: {', '.join(TRIAL_KEYS)})")
+    check_keys(entry, TRIAL_KEYS, where=here)
 
     if "file" not in entry:
         raise fail(f"{here}.file", "missing (the trial file, relative to the manifest)")
