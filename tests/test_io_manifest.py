@@ -233,7 +233,8 @@ def test_unknown_keys(study_dir):
     expect(
         study_dir,
         BODIES.replace("ideal = {", "weight = 3\nideal = {") + TRIALS,
-        r"bodies\.weight\.weight: unknown key \(allowed: prior, ideal, mass, com_distance, living\)",
+        r"bodies\.weight\.weight: unknown key \(allowed: prior, ideal, mass, com_distance, living, "
+        r"segment_length\)",
     )
 
 

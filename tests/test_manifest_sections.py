@@ -31,6 +31,7 @@ def test_the_registry_holds_the_tables_in_reading_order():
         "passive",
         "postures",
         "emg",
+        "subject",
         "defaults",
         "trials",
     ]
@@ -56,6 +57,7 @@ def test_the_study_keeps_every_section(tmp_path):
     assert study.sections["passive"] is None
     assert study.sections["postures"] == {}
     assert study.sections["emg"] is None
+    assert study.sections["subject"] is None
     assert study.sections["trials"] is study.trials
     assert study.sections["defaults"] == {}
 

@@ -121,6 +121,7 @@ from inertiafit.io.sections.postures import (
     Posture,
     read_postures,
 )
+from inertiafit.io.sections.subject import Subject
 from inertiafit.io.sections.trials import (
     ADDED_MASS_KEYS,
     DEFAULT_KEYS,
@@ -222,6 +223,11 @@ class Study:
     postures: dict[str, Posture] = field(default_factory=dict)
     emg: EmgSettings | None = None
     sections: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def subject(self) -> Subject | None:
+        """The ``[subject]`` table (:class:`~inertiafit.io.sections.subject.Subject`), if any."""
+        return self.sections.get("subject")
 
     @property
     def living_body(self) -> str:

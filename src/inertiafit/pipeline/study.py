@@ -201,6 +201,13 @@ def _sample_study(
         "ideals": ideals,
         "warnings": processed.warnings,
         "trials": processed.all_trials.to_dict(orient="list"),  # skipped trials listed too
+        # who was measured, for a population of studies (issue 33)
+        "subject": study.subject.as_dict() if study.subject is not None else None,
+        "segment_length": {
+            b: spec.segment_length
+            for b, spec in study.bodies.items()
+            if spec.segment_length is not None
+        },
     }
     living = (
         living_tables(processed.living, processed.damping, body=study.living_body)

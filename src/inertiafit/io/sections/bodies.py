@@ -13,15 +13,18 @@ from inertiafit.io.sections.base import (
     check_keys,
     check_name,
     fail,
+    number,
     register_section,
 )
 from inertiafit.io.units import unit_factor
 from inertiafit.measured import MEASURED_QUANTITIES
 
-__all__ = ["BODY_KEYS", "MEASURED_KEYS", "BodySpec", "read_bodies"]
+__all__ = ["BODY_KEYS", "MEASURED_KEYS", "SEGMENT_LENGTH_RANGE", "BodySpec", "read_bodies"]
 
 #: Keys of a ``[bodies.<name>]`` table.
-BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES, "living")
+BODY_KEYS = ("prior", "ideal", *MEASURED_QUANTITIES, "living", "segment_length")
+#: Segment lengths (m) a body may have: a length in cm (28) falls outside and is named.
+SEGMENT_LENGTH_RANGE = (0.01, 2.0)
 #: Keys of a measured quantity's table (``[bodies.<name>] mass`` or ``com_distance``: the
 #: registry :data:`inertiafit.measured.MEASURED_QUANTITIES`).
 MEASURED_KEYS = ("value", "sd", "resolution", "unit")
@@ -49,6 +52,9 @@ class BodySpec:
         A living segment (``living = true``): held by a joint whose passive elastic moment,
         damping and hysteresis (:attr:`Study.passive`) add to the moments of the conditions
         that hold it. At most one per study. Default false: a rigid body.
+    segment_length : float or None
+        m: the body's length as the lab measured it (``segment_length``), a covariate of a
+        population of studies; ``None`` when not given.
     """
 
     name: str
@@ -56,6 +62,7 @@ class BodySpec:
     ideal: dict[str, Any] | None = None
     measured: dict[str, tuple[float, float]] = field(default_factory=dict)
     living: bool = False
+    segment_length: float | None = None
 
 
 def read_bodies(raw: object, *, where: str) -> dict[str, BodySpec]:
@@ -99,8 +106,24 @@ def read_bodies(raw: object, *, where: str) -> dict[str, BodySpec]:
                     f"one living body per study; '{other}' is living already (the passive "
                     "model belongs to one joint)",
                 )
+        length = None
+        if "segment_length" in entry:
+            length = number(
+                entry["segment_length"], where=f"{here}.segment_length", what="a length in m"
+            )
+            lo, hi = SEGMENT_LENGTH_RANGE
+            if not lo <= length <= hi:
+                raise fail(
+                    f"{here}.segment_length",
+                    f"expected {lo:g} to {hi:g} m, got {entry['segment_length']!r} (in cm?)",
+                )
         bodies[name] = BodySpec(
-            name=name, prior=prior, ideal=ideal, measured=measured, living=living
+            name=name,
+            prior=prior,
+            ideal=ideal,
+            measured=measured,
+            living=living,
+            segment_length=length,
         )
     return bodies
 
