@@ -810,11 +810,19 @@ class LivingStatics:
         moment within: ``+-h(theta_j)``, uniform, so a variance ``h^2 / 3`` more.
         """
         theta = np.atleast_1d(np.asarray(theta, dtype=np.float64))
-        x = _matrix(self.columns(theta, condition, posture, 0), theta)
-        mean = x @ self.coefficients
-        var = np.einsum("ij,jk,ik->i", x, self.covariance, x)
+        mean, sd = self.midline(theta, condition, posture)
         band = _hysteresis_at(self.names, self.coefficients, self.smooth, self.basis.zero + theta)
-        return mean, np.sqrt(var + band**2 / 3.0)
+        return mean, np.sqrt(sd**2 + band**2 / 3.0)
+
+    def midline(self, theta: NDArray, condition: str, posture: str) -> tuple[NDArray, NDArray]:
+        """The static curve's midline at device angles ``theta`` (rad) and its SD, N m.
+
+        Gravity, the passive curve and the condition's offset in ``posture``, no hysteresis:
+        what the dynamometer reads midway between the sweep directions.
+        """
+        x = _matrix(self.columns(theta, condition, posture, 0), theta)
+        var = np.einsum("ij,jk,ik->i", x, self.covariance, x)
+        return x @ self.coefficients, np.sqrt(var)
 
     def passive_curve(self, step_deg: float = 2.0) -> pd.DataFrame:
         """The passive elastic moment over the swept range, relative to its middle.
@@ -871,9 +879,7 @@ class LivingStatics:
             curve = a * np.sin(theta) + b * np.cos(theta)
             table[f"gravity:{cond}"] = curve - (a * math.sin(mid) + b * math.cos(mid))
         for cond, posture in self.setups:  # what the dynamometer reads, measured in any design
-            x = _matrix(self.columns(theta, cond, posture, 0), theta)
-            static = x @ self.coefficients
-            static_sd = np.sqrt(np.einsum("ij,jk,ik->i", x, self.covariance, x))
+            static, static_sd = self.midline(theta, cond, posture)
             key = f"{cond}@{posture}" if posture else cond
             table[f"static:{key}"] = static
             table[f"static_lower:{key}"] = static - z * static_sd
@@ -1559,15 +1565,15 @@ def living_tables_from_dict(stored: Mapping[str, Mapping[str, list]]) -> dict[st
     JSON keeps no column order: the tables get theirs back (the curve's ``gravity:``
     columns after the others).
     """
-    out = {}
-    for name, columns in stored.items():
-        frame = pd.DataFrame(dict(columns))
-        if name == "passive_curve":
-            out[name] = frame[_curve_order(frame.columns)]
-            continue
-        first = {"passive_parameters": PARAMETER_COLUMNS, "static_fit": FIT_POINT_COLUMNS}[name]
-        out[name] = frame[[c for c in first if c in frame]]
-    return out
+    return {name: _in_order(name, pd.DataFrame(dict(c))) for name, c in stored.items()}
+
+
+def _in_order(name: str, frame: pd.DataFrame) -> pd.DataFrame:
+    """A stored table with the columns in the order :func:`living_tables` wrote them."""
+    if name == "passive_curve":
+        return frame[_curve_order(frame.columns)]
+    first = {"passive_parameters": PARAMETER_COLUMNS, "static_fit": FIT_POINT_COLUMNS}[name]
+    return frame[[c for c in first if c in frame]]
 
 
 #: The living joint's group in ``posterior.nc`` and its children: the three tables of
@@ -1595,10 +1601,6 @@ def statics_dataset(statics: LivingStatics) -> xr.Dataset:
     """
     names = list(statics.names)
     checks = list(statics.checks.values())
-    sources = [c.source for c in checks]
-    if statics.fit_points is not None:  # the files as trials.csv names them
-        named = list(dict.fromkeys(statics.fit_points["source"]))
-        sources = named if len(named) == len(sources) else sources
     data: dict[str, Any] = {
         "mean": ("coefficient", statics.coefficients, {"long_name": "coefficient's mean"}),
         "covariance": (("coefficient", "coefficient_"), statics.covariance),
@@ -1615,7 +1617,7 @@ def statics_dataset(statics: LivingStatics) -> xr.Dataset:
     coords: dict[str, Any] = {
         "coefficient": names,
         "coefficient_": names,
-        "trial": sources,
+        "trial": [c.source for c in checks],
         "posture": list(statics.postures),
     }
     if statics.smooth is not None and statics.hyper_weights is not None:
@@ -1660,12 +1662,11 @@ def living_tables_from_tree(tree: xr.DataTree) -> dict[str, pd.DataFrame]:
         inputs = json.loads(tree.attrs.get("inputs", "{}") or "{}")
         return living_tables_from_dict(inputs.get("living", {}))
     group = tree[LIVING_GROUP]
-    out = {}
-    for name, child in _TABLE_GROUPS.items():
-        if child in group.children:
-            frame = group[child].to_dataset().to_dataframe().reset_index(drop=True)
-            out[name] = frame
-    return living_tables_from_dict({k: v.to_dict(orient="list") for k, v in out.items()})
+    return {
+        name: _in_order(name, group[child].to_dataset().to_dataframe().reset_index(drop=True))
+        for name, child in _TABLE_GROUPS.items()
+        if child in group.children
+    }
 
 
 def _curve_order(columns: Iterable[str]) -> list[str]:

@@ -418,11 +418,6 @@ def _process(
                 "(the postures' rotations or the trials' noise weights still moved after 30 "
                 "iterations); its M_g is the last iteration's"
             )
-        if statics.fit_points is not None:  # the files as trials.csv names them
-            points = statics.fit_points.assign(
-                source=[relative_file(Path(f), study.base_dir) for f in statics.fit_points.source]
-            )
-            statics = dataclasses.replace(statics, fit_points=points)
         _apply_checks(study, statics, data, rows, notes)
         _check_rotations(study, statics, postures, notes)
         used = {spec.posture for spec, _ in data}
@@ -559,7 +554,7 @@ def _apply_checks(
     """
     failed = []
     for spec, _ in data:
-        check = statics.checks.get(str(spec.file))
+        check = statics.checks.get(relative_file(spec.file, study.base_dir))
         if check is None or not check.flagged or spec.index not in rows:
             continue
         row = rows[spec.index]

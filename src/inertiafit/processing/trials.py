@@ -301,15 +301,19 @@ def trial_row(
     return row
 
 
-def static_record(spec: TrialSpec, ds: xr.Dataset) -> StaticRecord:
-    """A living condition's quasi-static or rest trial as the joint fit takes it."""
+def static_record(spec: TrialSpec, ds: xr.Dataset, base: Path) -> StaticRecord:
+    """A living condition's quasi-static or rest trial as the joint fit takes it.
+
+    Its ``source`` is the file as ``trials.csv`` names it (relative to ``base``, the
+    manifest's folder): the fit's checks and ``static_fit.csv`` name the trial so.
+    """
     return StaticRecord(
         angle=ds["angle"].values,
         torque=ds["torque"].values,
         condition=spec.condition,
         posture=spec.posture,
         kind=spec.kind,
-        source=str(spec.file),
+        source=relative_file(spec.file, base),
         rate=sampling_rate(ds),
     )
 

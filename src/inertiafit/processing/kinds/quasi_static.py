@@ -73,7 +73,7 @@ class QuasiStatic:
             stage.qs_fits.setdefault(spec.condition, []).append(fit)
         stage.rows[spec.index] = trial_row(study, spec, gravity=fit, reader=run.reader_flags(spec))
         if living:
-            stage.records.append(static_record(spec, fitted))
+            stage.records.append(static_record(spec, fitted, study.base_dir))
 
     def after_gravity(self, stage: Stage, trials: list[tuple[TrialSpec, xr.Dataset]]) -> None:
         """Nothing: the study combines the sweeps' fits into its gravity models."""

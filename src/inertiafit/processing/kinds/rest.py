@@ -52,7 +52,7 @@ class Rest:
         row = rest_row(study, spec, held, reader=run.reader_flags(spec))
         row["flags"] = "; ".join(filter(None, [*rest_flag, row["flags"]]))
         stage.notes.extend(f"{spec.file}: {flag}" for flag in rest_flag)
-        stage.records.append(static_record(spec, held))
+        stage.records.append(static_record(spec, held, study.base_dir))
         stage.rows[spec.index] = row
 
     def after_gravity(self, stage: Stage, trials: list[tuple[TrialSpec, xr.Dataset]]) -> None:
