@@ -220,14 +220,11 @@ def _sample_study(
     conflicts = evidence_conflicts(model, post, where=str(study.path))
     worst = max(conflicts, key=lambda c: c.apart, default=None)
     if worst is not None and worst.apart > CONFLICT_REFUSE_SD:
-        refused = {
-            str(f): worst.line
-            for f in processed.trials.loc[processed.trials["condition"] == worst.condition, "file"]
-        }
+        refused = _trials_marked(processed, worst.condition, worst.line)
         raise StudyRefused(
             f"{worst.line.removesuffix(CONFLICT_ADVICE)}refused: past {CONFLICT_REFUSE_SD:g} "
             "SEs no interval of this posterior holds; check the keys that link the conditions "
-            "(joint_angle_at_zero, gravity_rotation, the passive priors' units, torque_sign)",
+            f"({_CONFLICT_KEYS})",
             refused=refused,
             table=processed.diagnostics(refused),
         )
@@ -244,10 +241,10 @@ CONFLICT_SD = 5.0
 #: with 4, 7e-6), the conditions measured different bodies. The issue's slips gave 60-120.
 CONFLICT_REFUSE_SD = 30.0
 #: How a conflict's line ends: what to check.
+_CONFLICT_KEYS = "joint_angle_at_zero, gravity_rotation, the passive priors' units, torque_sign"
 CONFLICT_ADVICE = (
     "the conditions do not describe the same bodies; check the keys that link them "
-    "(joint_angle_at_zero, gravity_rotation, the passive priors' units, torque_sign) before "
-    "trusting the intervals"
+    f"({_CONFLICT_KEYS}) before trusting the intervals"
 )
 
 
@@ -422,11 +419,13 @@ def _condition_trials(processed: ProcessedStudy, message: str) -> dict[str, str]
     marks, each with the message.
     """
     named = [c for c in processed.study.conditions if f"condition '{c}'" in message]
-    if len(named) != 1:
-        return {}
+    return _trials_marked(processed, named[0], message) if len(named) == 1 else {}
+
+
+def _trials_marked(processed: ProcessedStudy, condition: str, message: str) -> dict[str, str]:
+    """Each used trial of ``condition`` (its file as ``trials.csv`` names it) -> ``message``."""
     trials = processed.trials
-    files = trials.loc[trials["condition"] == named[0], "file"]
-    return {str(f): message for f in files}
+    return {str(f): message for f in trials.loc[trials["condition"] == condition, "file"]}
 
 
 def _diagnose(exc: StudyRefused, out: str | Path, say: Callable[[str], None]) -> None:
