@@ -305,26 +305,24 @@ def make_trial(
 
     notes = [str(f) for f in flags]
     derived = velocity is None
-    if derived:
+    if derived:  # the angle's own derivative: nothing to compare it with
         arrays["velocity"] = derived_velocity(
             arrays["angle"], step, velocity_window, where=f"{source}: velocity"
         )
-        check = None
     else:
         check = compare_velocity(t, arrays["angle"], arrays["velocity"], step=step)
-    # before any advice on units or the torque's sign
-    if not derived and not _follows_cleanly(check):
-        problem = _still_velocity(t, arrays, check, source=source, names=names)
-        problem = problem or _swapped_columns(t, arrays, source=source, names=names)
-        if problem is not None:
-            raise InputError(problem)
-    if check is not None:
-        reverse, said = _judge_velocity(check, source=source, names=names, units=units)
-        if reverse:
-            arrays["velocity"] = -arrays["velocity"]
-        notes.extend(said)
-    elif not derived:  # the angle never sweeps MIN_SWEEP: did the velocity say it moved?
-        _check_travel(t, arrays["angle"], arrays["velocity"], source, names, units)
+        if not _follows_cleanly(check):  # before any advice on units or the torque's sign
+            problem = _still_velocity(t, arrays, check, source=source, names=names)
+            problem = problem or _swapped_columns(t, arrays, source=source, names=names)
+            if problem is not None:
+                raise InputError(problem)
+        if check is not None:
+            reverse, said = _judge_velocity(check, source=source, names=names, units=units)
+            if reverse:
+                arrays["velocity"] = -arrays["velocity"]
+            notes.extend(said)
+        else:  # the angle never sweeps MIN_SWEEP: did the velocity say it moved?
+            _check_travel(t, arrays["angle"], arrays["velocity"], source, names, units)
     rate = 1.0 / step
     evidence = torque_magnitude or magnitude_evidence(arrays["angle"], arrays["torque"], rate)
     if evidence:
