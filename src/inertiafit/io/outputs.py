@@ -413,7 +413,8 @@ def _claim(out: str | Path, target: Path, label: str = "out: ") -> None:
 
 #: What a run into ``<name>`` leaves beside it when killed outright: its staging folder and
 #: its lock (:func:`_leftovers`), as the entries of the parent folder they sit in.
-_LEFT_BEHIND = re.compile(r"\.(?P<name>.+)\.(?:(?:new|draw)-[a-z0-9_]{8}|lock)")
+_STAGING_SUFFIX = r"(?:new|draw)-[a-z0-9_]{8}"  # eight of mkdtemp's characters
+_LEFT_BEHIND = re.compile(rf"\.(?P<name>.+)\.(?:{_STAGING_SUFFIX}|lock)")
 
 
 def _leftovers(target: Path) -> list[Path]:
@@ -423,7 +424,7 @@ def _leftovers(target: Path) -> list[Path]:
     ``mkdtemp``'s characters); never a folder moved aside by a swap (``.old-``), which may hold
     the only copy of the old outputs.
     """
-    pattern = re.compile(rf"\.{re.escape(target.name)}\.(?:new|draw)-[a-z0-9_]{{8}}")
+    pattern = re.compile(rf"\.{re.escape(target.name)}\.{_STAGING_SUFFIX}")
     try:
         entries = list(target.parent.iterdir())
     except OSError:
