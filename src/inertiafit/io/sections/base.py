@@ -29,6 +29,7 @@ __all__ = [
     "check_name",
     "fail",
     "number",
+    "number_within",
     "register_section",
 ]
 
@@ -95,6 +96,21 @@ def number(value: object, *, where: str, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise fail(where, f"expected {what}, got {value!r}")
     return float(value)
+
+
+def number_within(
+    value: object, where: str, bounds: tuple[float, float], unit: str, *, what: str, hint: str
+) -> float:
+    """A :func:`number` within ``bounds`` (in ``unit``), else one line with the likely slip.
+
+    ``what`` says what was expected of a non-number; ``hint`` ends the out-of-range message
+    (``" (in cm?)"``).
+    """
+    out = number(value, where=where, what=what)
+    lo, hi = bounds
+    if not lo <= out <= hi:
+        raise fail(where, f"expected {lo:g} to {hi:g} {unit}, got {value!r}{hint}")
+    return out
 
 
 def check_keys(table: Mapping[str, Any], allowed: Sequence[str], *, where: str) -> None:

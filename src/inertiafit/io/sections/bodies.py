@@ -13,7 +13,7 @@ from inertiafit.io.sections.base import (
     check_keys,
     check_name,
     fail,
-    number,
+    number_within,
     register_section,
 )
 from inertiafit.io.units import unit_factor
@@ -108,15 +108,14 @@ def read_bodies(raw: object, *, where: str) -> dict[str, BodySpec]:
                 )
         length = None
         if "segment_length" in entry:
-            length = number(
-                entry["segment_length"], where=f"{here}.segment_length", what="a length in m"
+            length = number_within(
+                entry["segment_length"],
+                f"{here}.segment_length",
+                SEGMENT_LENGTH_RANGE,
+                "m",
+                what="a length in m",
+                hint=" (in cm?)",
             )
-            lo, hi = SEGMENT_LENGTH_RANGE
-            if not lo <= length <= hi:
-                raise fail(
-                    f"{here}.segment_length",
-                    f"expected {lo:g} to {hi:g} m, got {entry['segment_length']!r} (in cm?)",
-                )
         bodies[name] = BodySpec(
             name=name,
             prior=prior,

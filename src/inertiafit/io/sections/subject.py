@@ -17,6 +17,7 @@ from inertiafit.io.sections.base import (
     check_name,
     fail,
     number,
+    number_within,
     register_section,
 )
 
@@ -67,16 +68,6 @@ class Subject:
         }
 
 
-def _in_range(
-    value: object, where: str, bounds: tuple[float, float], unit: str, hint: str
-) -> float:
-    out = number(value, where=where, what=f"a number in {unit}")
-    lo, hi = bounds
-    if not lo <= out <= hi:
-        raise fail(where, f"expected {lo:g} to {hi:g} {unit}, got {value!r}{hint}")
-    return out
-
-
 def read_subject(value: object, *, where: str) -> Subject | None:
     """The ``[subject]`` table, or ``None`` when the manifest has none."""
     if value is None:
@@ -91,12 +82,24 @@ def read_subject(value: object, *, where: str) -> Subject | None:
     check_name(subject_id, f"{here}.id", "subject id")
     if "body_mass" not in table:
         raise fail(f"{here}.body_mass", "missing; the subject's body mass in kg")
-    mass = _in_range(
-        table["body_mass"], f"{here}.body_mass", BODY_MASS_RANGE, "kg", " (a mass in g or lb?)"
+    mass = number_within(
+        table["body_mass"],
+        f"{here}.body_mass",
+        BODY_MASS_RANGE,
+        "kg",
+        what="a number in kg",
+        hint=" (a mass in g or lb?)",
     )
     height = None
     if "height" in table:
-        height = _in_range(table["height"], f"{here}.height", HEIGHT_RANGE, "m", " (in cm?)")
+        height = number_within(
+            table["height"],
+            f"{here}.height",
+            HEIGHT_RANGE,
+            "m",
+            what="a number in m",
+            hint=" (in cm?)",
+        )
     sex = table.get("sex")
     if sex is not None and sex not in SEXES:
         raise fail(f"{here}.sex", f'expected "female" or "male", got {sex!r}')
