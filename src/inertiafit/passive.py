@@ -70,12 +70,20 @@ def riener_edrich_ankle(ankle_deg: ArrayLike, *, knee_deg: float = _SEATED_KNEE_
     )
 
 
-def literature_curve(joint: str, theta_j: ArrayLike) -> NDArray:
+def literature_curve(
+    joint: str,
+    theta_j: ArrayLike,
+    *,
+    hip_deg: float = _SEATED_HIP_DEG,
+    ankle_deg: float = _NEUTRAL_ANKLE_DEG,
+    knee_deg: float = _SEATED_KNEE_DEG,
+) -> NDArray:
     """``P0``: the joint's literature curve as the device's moment (N m) at ``theta_j`` (rad).
 
     The negative of Riener & Edrich's tissue moment for the knee and the ankle; zero for the
     elbow and a generic joint (no shape is published for them; their prior is a spring with
-    end stops).
+    end stops). The other joints' angles (deg) default to the seated subject the prior files
+    assume: hip and ankle for the knee's curve, knee for the ankle's.
 
     Raises
     ------
@@ -87,9 +95,9 @@ def literature_curve(joint: str, theta_j: ArrayLike) -> NDArray:
         raise ValueError(msg)
     deg = np.degrees(np.asarray(theta_j, dtype=np.float64))
     if joint == "knee":
-        return -riener_edrich_knee(deg)
+        return -riener_edrich_knee(deg, hip_deg=hip_deg, ankle_deg=ankle_deg)
     if joint == "ankle":
-        return -riener_edrich_ankle(deg)
+        return -riener_edrich_ankle(deg, knee_deg=knee_deg)
     return np.zeros_like(deg)
 
 

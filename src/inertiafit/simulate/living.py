@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertiafit.io.units import DEG
 from inertiafit.mounting import Mounting
-from inertiafit.passive import JOINTS, passive_moment, riener_edrich_ankle, riener_edrich_knee
+from inertiafit.passive import JOINTS, literature_curve, passive_moment
 from inertiafit.physics import GRAVITY
 from inertiafit.simulate.emg import EmgSimulation, Reflex
 from inertiafit.simulate.emg import truth_lines as emg_truth_lines
@@ -221,17 +221,16 @@ class PassiveTruth:
     def literature(self, theta_j: ArrayLike) -> NDArray:
         """``curve_scale`` times this subject's literature curve (N m) at ``theta_j`` (rad).
 
-        Riener & Edrich's knee or ankle curve at :attr:`hip_angle`, :attr:`ankle_angle` or
-        :attr:`knee_angle`, as the device's moment (the negative of the tissue's, as
-        :func:`inertiafit.passive.literature_curve`); zero for the other joints.
+        :func:`inertiafit.passive.literature_curve` at :attr:`hip_angle`,
+        :attr:`ankle_angle` and :attr:`knee_angle`; zero for the elbow and a generic joint.
         """
-        deg = np.degrees(np.asarray(theta_j, dtype=np.float64))
-        if self.joint == "knee":
-            curve = -riener_edrich_knee(deg, hip_deg=self.hip_angle, ankle_deg=self.ankle_angle)
-        elif self.joint == "ankle":
-            curve = -riener_edrich_ankle(deg, knee_deg=self.knee_angle)
-        else:
-            return np.zeros_like(deg)
+        curve = literature_curve(
+            self.joint,
+            theta_j,
+            hip_deg=self.hip_angle,
+            ankle_deg=self.ankle_angle,
+            knee_deg=self.knee_angle,
+        )
         return self.curve_scale * curve
 
     def torque(self, angle: ArrayLike, velocity: ArrayLike) -> NDArray:
