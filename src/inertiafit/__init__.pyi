@@ -4,6 +4,8 @@ from .errors import ConvergenceWarning, InertiafitWarning, InputError, StudyRefu
 from .inference.fit import fit, fit_body
 from .inference.model import Condition, Model
 from .inference.observations import Observation
+from .inference.pooling import PopulationPosterior, open_population, population
+from .inference.population import Hyperprior
 from .inference.priors import Prior, available_priors, load_prior
 from .inference.reference import reference_posterior
 from .inference.sampler import SamplerSettings, sample
@@ -24,12 +26,14 @@ __all__ = [
     "Condition",
     "ConvergenceWarning",
     "Design",
+    "Hyperprior",
     "InertiafitWarning",
     "InputError",
     "Model",
     "Mounting",
     "NoiseLevels",
     "Observation",
+    "PopulationPosterior",
     "Posterior",
     "Prior",
     "Propagation",
@@ -43,9 +47,11 @@ __all__ = [
     "fit_body",
     "load_prior",
     "load_study",
+    "open_population",
     "open_posterior",
     "paper_baseline",
     "plan",
+    "population",
     "propagate",
     "read_trial",
     "reference_posterior",

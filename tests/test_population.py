@@ -1,0 +1,206 @@
+"""The population layer (issue 33): its density, hyperprior, reparametrisation and calibration."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from inertiafit.errors import ConvergenceWarning
+from inertiafit.inference import population as P
+from inertiafit.inference.pooling import fit_population
+from inertiafit.physics import GRAVITY, PARAMETERS
+from inertiafit.validation import population as V
+
+DESIGN = P.Design(
+    dict(P.DEFAULT_COVARIATES),
+    {"body_mass": math.log(75.0), "segment_length": math.log(0.27)},
+    {"body_mass": 1.0, "segment_length": 1.0},
+)
+CENTER = np.log([V.TYPICAL[p] for p in PARAMETERS])
+
+
+def test_lkj_correlations_have_the_lkj_marginals():
+    """Each correlation of an LKJ(eta) 3x3 matrix is Beta(eta + 1/2) on (-1, 1), whichever pair."""
+    hyper = P.Hyperprior(lkj_eta=2.0)
+    z = P.sample_hyperprior(DESIGN, hyper, CENTER, 20000, np.random.default_rng(1))
+    terms = P.natural_terms(DESIGN, z)
+    marginal = stats.beta(2.5, 2.5, loc=-1, scale=2)
+    pairs = [k for k in terms if k[1].startswith("correlation")]
+    assert len(pairs) == 3
+    for key in pairs:
+        assert stats.kstest(terms[key], marginal.cdf).pvalue > 1e-3, key
+    # negative control: the last pair is built from a partial correlation ~ Beta(eta); its
+    # marginal is not that law, and the test tells them apart
+    last = terms["com_distance", "correlation:radius_of_gyration"]
+    assert stats.kstest(last, stats.beta(2.0, 2.0, loc=-1, scale=2).cdf).pvalue < 1e-3
+
+
+def test_hyperprior_density_and_draws_agree():
+    """The density's gradient vanishes where its draws centre: slopes at 1, scatter at its median."""
+    hyper = P.Hyperprior()
+    z = P.sample_hyperprior(DESIGN, hyper, CENTER, 40000, np.random.default_rng(2))
+    terms = P.natural_terms(DESIGN, z)
+    assert np.median(terms["mass", "slope:body_mass"]) == pytest.approx(1.0, abs=0.03)
+    assert np.median(terms["mass", "scatter"]) == pytest.approx(hyper.scatter_median, rel=0.03)
+    # the log density's mode along the slope and the log scatter is where the draws peak
+    base = z[:1].copy()
+    base[0, 1] = 1.0
+    base[0, 6] = math.log(hyper.scatter_median)
+    for i in (1, 6):
+        up, down = base.copy(), base.copy()
+        up[0, i] += 1e-4
+        down[0, i] -= 1e-4
+        grad = (
+            P.hyper_log_prior(DESIGN, hyper, CENTER, up)
+            - P.hyper_log_prior(DESIGN, hyper, CENTER, down)
+        ) / 2e-4
+        assert abs(grad[0]) < 1e-6
+
+
+def test_sampled_coordinates_round_trip_with_their_jacobian():
+    z = np.random.default_rng(3).normal(size=(50, DESIGN.ndim))
+    u = P.to_sampled(DESIGN, z)
+    back, log_jac = P.to_model(DESIGN, u)
+    np.testing.assert_allclose(back, z, atol=1e-12)
+    idx = P.intercept_indices(DESIGN)
+    h = 1e-6
+    J = np.empty((3, 3))
+    for a, i in enumerate(idx):
+        e = np.zeros(DESIGN.ndim)
+        e[i] = h
+        J[:, a] = (
+            P.to_model(DESIGN, u[:1] + e)[0][0, idx] - P.to_model(DESIGN, u[:1] - e)[0][0, idx]
+        ) / (2 * h)
+    assert log_jac[0] == pytest.approx(math.log(abs(np.linalg.det(J))), abs=1e-6)
+
+
+def test_importance_estimate_equals_the_direct_integral():
+    """HMB's mean of p_pop / pi over a subject's draws = the likelihood integrated over p_pop.
+
+    One subject measured by I and M_g (Gaussian): the population's marginal likelihood is also
+    E over the population of N(I_obs; I) N(M_obs; M_g), by plain Monte Carlo. Their difference
+    between two populations must agree (each subject's constant evidence cancels).
+    """
+    rng = np.random.default_rng(4)
+    truth = np.array([1.6, 0.2, 0.13])
+    obs = (truth[0] * (truth[1] ** 2 + truth[2] ** 2), truth[0] * GRAVITY * truth[1])
+    se = 0.02
+    covs = {"body_mass": 80.0, "segment_length": 0.28}
+    subject = V.exact_subject_draws(
+        "S1",
+        truth,
+        covs,
+        prior_median=truth * 1.1,
+        prior_sd_log=0.3,
+        rel_se=se,
+        rng=rng,
+        n_draws=60000,
+        n_proposal=400000,
+        observed=obs,
+    )
+    feats = P.Features([subject])
+    mats = DESIGN.matrices([covs])
+    base = np.concatenate(
+        [
+            [math.log(1.6), 1.0, math.log(0.2), 1.0, math.log(0.13), 1.0],
+            np.log([0.1, 0.08, 0.08]),
+            [0.3, 0.0, -0.2],
+        ]
+    )
+    other = base.copy()
+    other[[0, 2]] += [0.15, -0.1]
+    other[6] = math.log(0.2)
+    hmb = P.log_likelihood(feats, DESIGN, mats, np.vstack([base, other]))
+
+    def direct(z):
+        draws = P.predictive_draws(DESIGN, np.repeat(z[None], 400000, 0), covs, rng)
+        li = stats.norm.pdf(obs[0], draws["inertia"], se * obs[0])
+        lg = stats.norm.pdf(obs[1], draws["gravity_moment"], se * obs[1])
+        return math.log(np.mean(li * lg))
+
+    assert hmb[1] - hmb[0] == pytest.approx(direct(other) - direct(base), abs=0.05)
+
+
+def _fit(cohort, hyper, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        return fit_population(
+            cohort.subjects, cohort.design, hyperprior=hyper, center=CENTER, **kw
+        )
+
+
+def test_the_ridge_is_left_to_the_hyperprior_unless_segments_are_weighed():
+    """I and M_g per subject identify the typical I and M_g; m itself only with weighed segments."""
+    hyper = P.Hyperprior(intercept_sd=0.3, slope_sd=0.3, scatter_median=0.08, scatter_sd_log=0.5)
+    truth = V.center_vector(DESIGN, CENTER)
+    out = {}
+    for weighed in ((), tuple(range(20))):
+        rng = np.random.default_rng(5)
+        cohort = V.simulate_cohort(
+            20,
+            truth=truth,
+            hyperprior=hyper,
+            center=CENTER,
+            rng=rng,
+            prior_sd_log=0.4,
+            weighed=weighed,
+        )
+        fit = _fit(cohort, hyper, seed=1, ess_target=300)
+        terms = P.natural_terms(cohort.design, fit.flat)
+        a_m = terms["mass", "intercept"]
+        log_i = a_m + np.logaddexp(
+            2 * terms["radius_of_gyration", "intercept"], 2 * terms["com_distance", "intercept"]
+        )
+        log_g = a_m + terms["com_distance", "intercept"] + math.log(GRAVITY)
+        true_i = math.log(1.6 * (0.2**2 + 0.13**2))
+        true_g = math.log(1.6 * GRAVITY * 0.2)
+        # the typical subject's I and M_g: measured (posterior SD a few % of it) and right
+        assert np.std(log_i) < 0.05
+        assert abs(np.median(log_i) - true_i) < 3 * np.std(log_i) + 0.01
+        assert np.std(log_g) < 0.05
+        assert abs(np.median(log_g) - true_g) < 3 * np.std(log_g) + 0.01
+        out[bool(weighed)] = np.std(a_m) / hyper.intercept_sd
+        assert fit.ess.min() >= P.MIN_ESS
+    # The mass intercept: with I and M_g alone the data only narrow it (the subjects' ridges
+    # differ in shape across segment lengths), the hyperprior still shares it; weighed
+    # segments decide it.
+    assert out[False] > 0.3, out
+    assert out[True] < 0.3, out
+    assert out[False] > 2 * out[True], out
+
+
+@pytest.mark.slow
+def test_population_sbc_is_calibrated_and_forgetting_the_priors_is_not():
+    """Simulation-based calibration of the hyperparameters; the negative control fails.
+
+    16 cohorts of five subjects with 3000 draws each (enough importance weights in the
+    posterior's tails: see ``MAX_LOGLIKE_VARIANCE``), 19 posterior draws kept: 12 terms x 16
+    ranks in 0..19. The benchmark (benchmarks/population.py) runs more cohorts.
+    """
+    ranks = V.population_sbc(
+        16, n_subjects=5, seed=11, n_keep=19, chunk=100, max_steps=600, n_draws=3000
+    )
+    pooled = np.concatenate(list(ranks.values()))
+    counts = np.bincount(pooled // 4, minlength=5)  # five bins of four ranks
+    assert stats.chisquare(counts).pvalue > 1e-3, counts
+    # too many ranks in the outer fifth is the overconfidence the draws' count guards against
+    assert np.mean(np.isin(pooled, [0, 1, 18, 19])) < 0.28, counts
+    # negative control: the subjects' priors (40 % high, sd of log 0.2) not divided out
+    bad = V.population_sbc(
+        6,
+        n_subjects=5,
+        seed=12,
+        n_keep=19,
+        chunk=100,
+        max_steps=600,
+        n_draws=3000,
+        ignore_interim=True,
+        prior_bias=1.4,
+        prior_sd_log=0.2,
+    )
+    low = np.concatenate([bad["mass", "intercept"], bad["radius_of_gyration", "intercept"]])
+    assert np.mean(low <= 1) > 0.5, low
