@@ -417,6 +417,55 @@ class _Demo(_Command):
 
 
 @_command
+class _Population(_Command):
+    name = "population"
+    help = "pool many subjects' studies into a population: regressions with scatter"
+    description = (
+        "Pool the studies of many subjects (each DIR a 'run' or 'fit' output folder, or a "
+        "'run-many' output folder: all its studies) into a population per body: log-linear "
+        "regressions of m, x and rho on body mass and segment length (the manifests' [subject] "
+        "body_mass and each body's segment_length) with a correlated scatter between subjects, "
+        "inferred by reweighting each subject's stored draws from its own prior (Hogg, Myers & "
+        "Bovy 2010). Writes population.csv, subjects.csv (each subject's own and pooled "
+        "estimates), population.nc (a new study's prior: prior = { population = "
+        '"OUT/population.nc" }) and report.html into --out.'
+    )
+
+    @staticmethod
+    def arguments(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "sources", type=Path, nargs="+", metavar="DIR", help="run, fit or run-many outputs"
+        )
+        _add_out(p, "population-output")
+        p.add_argument(
+            "--bodies",
+            metavar="NAMES",
+            help="comma-separated bodies to pool (default: every body in 3 or more studies "
+            "with its covariates recorded)",
+        )
+        _add_seed(p)
+        _add_hdi_prob(p)
+        _add_formats(p)
+
+    @staticmethod
+    def run(args: argparse.Namespace) -> int:
+        from inertiafit.pipeline.population import run_population
+
+        bodies = None
+        if args.bodies is not None:
+            bodies = [b.strip() for b in args.bodies.split(",") if b.strip()]
+        run_population(
+            args.sources,
+            out=args.out,
+            seed=args.seed,
+            hdi_prob=args.hdi_prob,
+            bodies=bodies,
+            formats=args.formats,
+        )
+        return 0
+
+
+@_command
 class _Report(_Command):
     name = "report"
     help = "redraw the tables, figures and report.html of an output folder"

@@ -24,6 +24,7 @@ from inertiafit._checks import check_positive
 from inertiafit.errors import InputError, StudyRefused
 from inertiafit.inference.model import Condition, Model, observable_ranges
 from inertiafit.inference.observations import Observation, check_resolvable
+from inertiafit.inference.population import population_prior_table
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.measured import measured_quantity
 from inertiafit.stats import shared_error
@@ -52,11 +53,35 @@ def study_priors(study: Study) -> dict[str, Prior]:
     """Resolve every body's prior (shipped name, path relative to the manifest, or table)."""
     priors = {}
     for name, body in study.bodies.items():
+        spec = body.prior
         try:
-            priors[name] = load_prior(body.prior, base_dir=study.base_dir, name=name)
+            if isinstance(spec, dict) and "population" in spec:
+                spec = population_prior_table(
+                    spec,
+                    where=f"{study.path}: bodies.{name}.prior",
+                    base_dir=study.base_dir,
+                    body=name,
+                    known=_known_covariates(study, name),
+                )
+            priors[name] = load_prior(spec, base_dir=study.base_dir, name=name)
         except InputError as exc:
             raise InputError(f"{study.path}: bodies.{name}.prior: {exc}") from None
     return priors
+
+
+def _known_covariates(study: Study, body: str) -> dict[str, float]:
+    """What the manifest says of the subject and the body, for a population prior."""
+    out: dict[str, float] = {}
+    subject = study.subject
+    if subject is not None:
+        out["body_mass"] = subject.body_mass
+        if subject.height is not None:
+            out["height"] = subject.height
+        out.update(subject.covariates)
+    length = study.bodies[body].segment_length
+    if length is not None:
+        out["segment_length"] = length
+    return out
 
 
 def shared_gravity_error(coefficients, covariance, sensitivities) -> tuple[float, float]:

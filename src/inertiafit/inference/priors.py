@@ -34,6 +34,11 @@ An optional ``[reference]`` table carries published values to print beside the p
 (``label``, ``mass``, ``com_distance``, ``radius_of_gyration``, ``inertia`` in SI units).
 Files are parsed against this schema; nothing in them is executed.
 
+A table may instead name a population written by ``inertiafit population``,
+``population = "OUT/population.nc"`` with ``body`` and the new subject's covariates: a
+lognormal prior per parameter from the population's predictive distribution
+(:func:`inertiafit.inference.population.population_prior_table`).
+
 A table (a file, or an inline manifest table) may instead name an anthropometric table,
 ``anthropometric = "de-leva-male"``, with ``segment``, ``body_mass`` and ``segment_length``:
 a lognormal prior per parameter from the published fractions (:mod:`.anthropometric`,
@@ -55,7 +60,7 @@ from scipy import special
 
 from inertiafit._checks import check_finite, check_positive
 from inertiafit.errors import InputError
-from inertiafit.inference import anthropometric
+from inertiafit.inference import anthropometric, population
 from inertiafit.io.shipped import shipped_dirs
 from inertiafit.io.units import si_factors
 from inertiafit.physics import PARAMETERS, UNITS
@@ -365,6 +370,8 @@ def parse_prior(
     if not isinstance(table, dict):
         raise InputError(f"{where}: expected a table of prior parameters, got {table!r}")
     segment: dict[str, str] = {}
+    if "population" in table:
+        table = population.population_prior_table(table, where=where, body=name)
     if "anthropometric" in table:
         segment = {k: str(table[k]) for k in ("anthropometric", "sex", "segment") if k in table}
         table = anthropometric.prior_table(table, where=where)
@@ -594,6 +601,10 @@ def load_prior(
     if isinstance(spec, Prior):
         return spec
     if isinstance(spec, dict):
+        if "population" in spec and base_dir is not None:
+            spec = population.population_prior_table(
+                spec, where=f"prior of '{name or 'body'}'", base_dir=base_dir, body=name
+            )
         return parse_prior(spec, name=name or "body", where=f"prior of '{name or 'body'}'")
     text = str(spec)
     shipped = available_priors()

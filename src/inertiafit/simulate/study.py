@@ -245,6 +245,8 @@ def simulate_study(
     name: str = "Simulated study",
     measured: Mapping[str, Mapping[str, float | Sequence[float]]] | None = None,
     emg: EmgSimulation | None = None,
+    subject: Mapping[str, Any] | None = None,
+    segment_lengths: Mapping[str, float] | None = None,
 ) -> Path:
     """Write a simulated study: one CSV per trial and a ``study.toml`` manifest.
 
@@ -314,6 +316,10 @@ def simulate_study(
         stretch reflex (burst and torque) in the fast trials it chooses. The manifest gets an
         ``[emg]`` table (``columns``, ``unit = "V"``), ``truth.toml`` an ``[emg]`` table with
         every reflex. Default None: no EMG, the files exactly as without the option.
+    subject : mapping, optional
+        The manifest's ``[subject]`` table (``id``, ``body_mass``, ...), written as given.
+    segment_lengths : mapping of str to float, optional
+        Each named body's ``segment_length`` (m), written into its ``[bodies.<name>]``.
 
     Returns
     -------
@@ -341,7 +347,14 @@ def simulate_study(
     root = np.random.SeedSequence(seed)
     condition_seeds = root.spawn(len(conditions))
     # Spawned after the conditions' seeds, so that measuring leaves every trial's bytes alone.
-    readings = _readings(measured, truth, root.spawn(1)[0]) if measured else {}
+    readings: dict[str, dict[str, Any]] = {
+        b: dict(r)
+        for b, r in (_readings(measured, truth, root.spawn(1)[0]) if measured else {}).items()
+    }
+    for b, length in (segment_lengths or {}).items():
+        if b not in truth:
+            raise ValueError(f"segment_lengths: {b!r} is not a body ({', '.join(truth)})")
+        readings.setdefault(b, {})["segment_length"] = float(length)
 
     lines = manifest_head(
         name=name,
@@ -355,6 +368,8 @@ def simulate_study(
     )
     if emg is not None:
         lines += emg_manifest_lines(emg.muscles)
+    if subject is not None:
+        lines += ["[subject]", *(f"{k} = {toml_value(v)}" for k, v in subject.items()), ""]
     reflexes: dict[str, Reflex] = {}
 
     for label, mounting, cseed in zip(labels, mountings, condition_seeds, strict=True):
