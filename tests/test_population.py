@@ -177,30 +177,32 @@ def test_the_ridge_is_left_to_the_hyperprior_unless_segments_are_weighed():
 def test_population_sbc_is_calibrated_and_forgetting_the_priors_is_not():
     """Simulation-based calibration of the hyperparameters; the negative control fails.
 
-    16 cohorts of five subjects with 3000 draws each (enough importance weights in the
-    posterior's tails: see ``MAX_LOGLIKE_VARIANCE``), 19 posterior draws kept: 12 terms x 16
-    ranks in 0..19. The benchmark (benchmarks/population.py) runs more cohorts.
+    12 cohorts of four subjects with 2000 draws each (enough importance weights in the
+    posterior's tails: see ``MAX_LOGLIKE_VARIANCE``), 19 posterior draws kept: 12 terms x 12
+    ranks in 0..19. benchmarks/population.py runs 60 cohorts.
     """
     ranks = V.population_sbc(
-        16, n_subjects=5, seed=11, n_keep=19, chunk=100, max_steps=600, n_draws=3000
+        12, n_subjects=4, seed=11, n_keep=19, chunk=100, max_steps=300, n_draws=2000
     )
     pooled = np.concatenate(list(ranks.values()))
     counts = np.bincount(pooled // 4, minlength=5)  # five bins of four ranks
     assert stats.chisquare(counts).pvalue > 1e-3, counts
-    # too many ranks in the outer fifth is the overconfidence the draws' count guards against
-    assert np.mean(np.isin(pooled, [0, 1, 18, 19])) < 0.28, counts
-    # negative control: the subjects' priors (40 % high, sd of log 0.2) not divided out
+    # too many ranks in the outer fifth is the overconfidence too few draws give
+    assert np.mean(np.isin(pooled, [0, 1, 18, 19])) < 0.3, counts
+    # Negative control: the subjects' priors not divided out, priors that pull along the
+    # ridge (m 50 % high, x as much low, SD of log 0.15; a bias of all three alike hides,
+    # m and x trading off along the ridge). The mass intercept then sits high: the truth
+    # ranks at the bottom.
     bad = V.population_sbc(
-        6,
-        n_subjects=5,
+        5,
+        n_subjects=4,
         seed=12,
         n_keep=19,
         chunk=100,
-        max_steps=600,
-        n_draws=3000,
+        max_steps=300,
+        n_draws=2000,
         ignore_interim=True,
-        prior_bias=1.4,
-        prior_sd_log=0.2,
+        prior_bias=(1.5, 1 / 1.5, 1.0),
+        prior_sd_log=0.15,
     )
-    low = np.concatenate([bad["mass", "intercept"], bad["radius_of_gyration", "intercept"]])
-    assert np.mean(low <= 1) > 0.5, low
+    assert np.mean(bad["mass", "intercept"] <= 1) >= 0.6, bad["mass", "intercept"]

@@ -409,6 +409,7 @@ def fit_population(
     chunk: int = 250,
     draws_per_subject: int | None = None,
     moves: str = "independent",
+    pool_draws: int = POOL_DRAWS,
 ) -> PopulationFit:
     """Sample the hyperparameters' posterior with emcee, then pool every subject.
 
@@ -476,11 +477,21 @@ def fit_population(
         cov = np.eye(design.ndim) * 0.01
     rng = np.random.default_rng(seed)
     n_walkers = max(n_walkers, 2 * design.ndim + 2)
-    pool = rng.multivariate_normal(mode, cov, size=8 * n_walkers)
-    pool = pool[np.isfinite(log_post(pool))]
-    if len(pool) < n_walkers:
-        raise InputError("population: no start around the mode has a finite density")
-    start = pool[:n_walkers]
+    if not np.isfinite(log_post(mode))[0]:
+        raise InputError(
+            "population: no hyperparameters at which every subject's draws represent the "
+            f"population (importance ESS >= {MIN_ESS:.0f}); the subjects' posteriors are too "
+            "far apart or too narrow for their draws"
+        )
+    start = np.empty((0, design.ndim))
+    for shrink in (1.0, 0.25, 0.0625, 0.01, 1e-4):  # a start ball inside the density's support
+        ball = rng.multivariate_normal(mode, cov * shrink, size=8 * n_walkers)
+        start = np.vstack([start, ball[np.isfinite(log_post(ball))]])
+        if len(start) >= n_walkers:
+            break
+    else:
+        start = mode + 1e-6 * rng.standard_normal((n_walkers, design.ndim))
+    start = start[:n_walkers]
     chosen = emcee_moves(moves, mode, cov)
     sampler = emcee.EnsembleSampler(n_walkers, design.ndim, log_post, vectorize=True, moves=chosen)
     sampler.random_state = np.random.RandomState(seed).get_state()
@@ -517,7 +528,7 @@ def fit_population(
     draws = model.to_model(design, chain.reshape(-1, design.ndim))[0].reshape(chain.shape)
     flat = draws.reshape(-1, design.ndim)
     # Each subject pooled over (at most) POOL_DRAWS hyperparameter draws, evenly spaced.
-    keep = flat[np.linspace(0, len(flat) - 1, min(POOL_DRAWS, len(flat))).round().astype(int)]
+    keep = flat[np.linspace(0, len(flat) - 1, min(pool_draws, len(flat))).round().astype(int)]
     ess_sub, ess_low, pooled, variance = _pool(features, design, matrices, keep, rng)
     median = np.median(flat, axis=0)
     return PopulationFit(
@@ -699,7 +710,9 @@ class PopulationPosterior:
             t = table[table["body"] == body]
             lines.append(
                 f"population of {body!r}: {len(fit.subjects)} subjects; importance-weight ESS "
-                f"{fit.ess.min():.0f}-{fit.ess.max():.0f} of {fit.n_draws} draws each; "
+                f"{fit.ess.min():.0f}-{fit.ess.max():.0f} of {fit.n_draws} draws each "
+                "(variance of the log likelihood "
+                f"{fit.diagnostics.get('loglike_variance_95', float('nan')):.2g}); "
                 f"hyperparameters: {fit.diagnostics.get('steps', '?')} steps, bulk ESS "
                 f">= {fit.diagnostics.get('ess_bulk_min', float('nan')):.0f}, "
                 f"R-hat <= {fit.diagnostics.get('r_hat_max', float('nan')):.3f}"

@@ -161,7 +161,7 @@ def simulate_cohort(
     center: np.ndarray,
     rng: np.random.Generator,
     rel_se: float = 0.02,
-    prior_bias: float = 1.15,
+    prior_bias: float | Sequence[float] = 1.15,
     prior_sd_log: float = 0.3,
     n_draws: int = 1000,
     weighed: Sequence[int] = (),
@@ -180,10 +180,9 @@ def simulate_cohort(
     _, log_sigma, t = split_vector(design, truth[None])
     chol = np.exp(log_sigma)[0][:, None] * correlation_cholesky(np.tanh(t))[0]
     theta = mu + rng.standard_normal((n, 3)) @ chol.T
-    table = (
-        np.exp(population_means(design, matrices, center_vector(design, center)[None])[0])
-        * prior_bias
-    )
+    table = np.exp(
+        population_means(design, matrices, center_vector(design, center)[None])[0]
+    ) * np.asarray(prior_bias)
     subjects = [
         exact_subject_draws(
             f"S{i + 1:02d}",
@@ -220,7 +219,7 @@ def population_sbc(
     ignore_interim: bool = False,
     ess_target: float = 300.0,
     max_steps: int = 20000,
-    prior_bias: float = 1.15,
+    prior_bias: float | Sequence[float] = 1.15,
     prior_sd_log: float = 0.3,
     chunk: int = 250,
     n_draws: int = 1000,
@@ -265,6 +264,7 @@ def population_sbc(
                 ess_target=ess_target,
                 max_steps=max_steps,
                 chunk=chunk,
+                pool_draws=200,  # the subjects' pooled draws are not ranked
             )
         flat = fit.flat
         keep = flat[np.linspace(0, len(flat) - 1, n_keep).astype(int)]
