@@ -460,10 +460,8 @@ def fit_population(
     # EM finds the likelihood's mode; a short quasi-Newton polish adds the hyperprior.
     em = model.to_sampled(design, _em_start(features, design, matrices)[None])[0]
     scatters = slice(design.ndim - 6, design.ndim - 3)
-    for _ in range(6):  # a start where some subject's ESS is too low: wider scatters
-        if np.isfinite(log_post(em))[0]:
-            break
-        em[scatters] += math.log(1.5)
+    while not np.isfinite(log_post(em))[0] and em[scatters].min() < math.log(2.0):
+        em[scatters] += math.log(1.5)  # some subject's ESS too low there: wider scatters
     polish = optimize.minimize(
         lambda x: _gradient(neg, x), em, jac=True, method="L-BFGS-B", options={"maxiter": 60}
     )
@@ -478,10 +476,16 @@ def fit_population(
     rng = np.random.default_rng(seed)
     n_walkers = max(n_walkers, 2 * design.ndim + 2)
     if not np.isfinite(log_post(mode))[0]:
+        z, _ = model.to_model(design, mode[None])
+        lw = features.log_weights(design, matrices, z)[..., 0]
+        w = np.exp(lw - lw.max(axis=1, keepdims=True))
+        ess = w.sum(axis=1) ** 2 / (w * w).sum(axis=1)
+        worst = int(np.argmin(ess))
         raise InputError(
-            "population: no hyperparameters at which every subject's draws represent the "
-            f"population (importance ESS >= {MIN_ESS:.0f}); the subjects' posteriors are too "
-            "far apart or too narrow for their draws"
+            f"population: subject {subjects[worst].name!r}: importance-weight ESS "
+            f"{ess[worst]:.0f} of {features.n_draws} draws (needs {MIN_ESS:.0f}) even for a "
+            "population wider than the subjects: its draws follow its own prior's shape "
+            "more than its data can be reweighted; fit it with a wider prior or more draws"
         )
     start = np.empty((0, design.ndim))
     for shrink in (1.0, 0.25, 0.0625, 0.01, 1e-4):  # a start ball inside the density's support

@@ -16,6 +16,7 @@ forgets to divide them out counts them once per subject (the negative control).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
 from collections.abc import Sequence
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inertiafit.errors import ConvergenceWarning
+from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.inference.pooling import fit_population
 from inertiafit.inference.population import (
     Design,
@@ -229,7 +230,8 @@ def population_sbc(
     ``ignore_interim=True`` is the negative control: the subjects' prior densities are not
     divided out (each draw counts as if drawn from the likelihood alone). A fit that stops at
     ``max_steps`` before its convergence targets still gives ranks (a fixed budget: the
-    ranks' uniformity is the test); its warning is not raised.
+    ranks' uniformity is the test); its warning is not raised. A cohort with a subject whose
+    draws cannot be reweighted (the fit's one-line refusal) is left out of the ranks.
     """
     hyper = hyperprior or SBC_HYPERPRIOR
     center = np.log([TYPICAL[p] for p in PARAMETERS])
@@ -253,7 +255,8 @@ def population_sbc(
                 )
                 for s in subjects
             ]
-        with warnings.catch_warnings():
+        fit = None  # a cohort with a subject the population cannot reweight is left out
+        with warnings.catch_warnings(), contextlib.suppress(InputError):
             warnings.simplefilter("ignore", ConvergenceWarning)
             fit = fit_population(
                 subjects,
@@ -266,6 +269,8 @@ def population_sbc(
                 chunk=chunk,
                 pool_draws=200,  # the subjects' pooled draws are not ranked
             )
+        if fit is None:
+            continue
         flat = fit.flat
         keep = flat[np.linspace(0, len(flat) - 1, n_keep).astype(int)]
         post = natural_terms(cohort.design, keep)
