@@ -49,12 +49,13 @@ def _subject(k: int, body_mass: float, length: float, sex: str | None, rng):
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    """The population of the four subjects and its report (hyperparameters: 1000 steps)."""
+    """The population of the four subjects and its report (600 steps, 1000 draws each)."""
     rng = np.random.default_rng(5)
     posts = [_subject(k, *s, rng) for k, s in enumerate(SUBJECTS)]
-    short = functools.partial(pooling.fit_population, max_steps=1000)
+    short = functools.partial(pooling.fit_population, max_steps=600, chunk=150)
     with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
         mp.setattr(pooling, "fit_population", short)
+        mp.setattr(pooling, "POINTS", 4000)  # 1000 draws per subject
         warnings.simplefilter("ignore", InertiafitWarning)  # 1000 steps: not converged
         pop = pooling.population(posts, seed=1)
     folder = tmp_path_factory.mktemp("population")
