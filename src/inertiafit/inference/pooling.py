@@ -479,11 +479,11 @@ def fit_population(
         z, _ = model.to_model(design, mode[None])
         lw = features.log_weights(design, matrices, z)[..., 0]
         w = np.exp(lw - lw.max(axis=1, keepdims=True))
-        ess = w.sum(axis=1) ** 2 / (w * w).sum(axis=1)
-        worst = int(np.argmin(ess))
+        subject_ess = w.sum(axis=1) ** 2 / (w * w).sum(axis=1)
+        worst = int(np.argmin(subject_ess))
         raise InputError(
             f"population: subject {subjects[worst].name!r}: importance-weight ESS "
-            f"{ess[worst]:.0f} of {features.n_draws} draws (needs {MIN_ESS:.0f}) even for a "
+            f"{subject_ess[worst]:.0f} of {features.n_draws} draws (needs {MIN_ESS:.0f}) even for a "
             "population wider than the subjects: its draws follow its own prior's shape "
             "more than its data can be reweighted; fit it with a wider prior or more draws"
         )
@@ -588,29 +588,11 @@ def _pool(features: model.Features, design: Design, matrices, flat: np.ndarray, 
     return 1.0 / np.sum(w * w, axis=1), np.quantile(ess_all, 0.05, axis=1), pooled, variance
 
 
-def _hdi(x: np.ndarray, prob: float) -> tuple[float, float]:
-    from arviz_stats import hdi
-
-    lo, hi = (float(v) for v in hdi(np.asarray(x).ravel(), prob=prob))
-    return lo, hi
-
-
 def _decided(draws: np.ndarray, prior_sd: float) -> str:
     """Who decides a hyperparameter: its posterior SD over its hyperprior SD, as for a body."""
     from inertiafit.posterior.core import identification_verdict
 
     return identification_verdict(float(np.std(draws)) / prior_sd) if prior_sd > 0 else "data"
-
-
-def _derived(log_theta: np.ndarray, gravity: float) -> dict[str, np.ndarray]:
-    m, x, r = np.exp(log_theta).T
-    return {
-        "mass": m,
-        "com_distance": x,
-        "radius_of_gyration": r,
-        "inertia": m * (r * r + x * x),
-        "gravity_moment": m * gravity * x,
-    }
 
 
 class PopulationPosterior:
@@ -752,7 +734,7 @@ class PopulationPosterior:
     def _row(body, p, term, v, chain, hdi_prob, unit, reference) -> dict[str, Any]:
         from arviz_stats import ess, rhat
 
-        lo, hi = _hdi(v, hdi_prob)
+        lo, hi = model.hdi_bounds(v, hdi_prob)
         return {
             "body": body,
             "parameter": p,
@@ -775,18 +757,16 @@ class PopulationPosterior:
         rows = []
         for body, fit in self.fits.items():
             for i, study in enumerate(self.studies[body]):
-                own = _derived(
-                    np.log(
-                        np.column_stack(
-                            [study.posterior.draws(body, p).ravel() for p in PARAMETERS]
-                        )
-                    ),
-                    self.gravity,
+                own_log = np.log(
+                    np.column_stack([study.posterior.draws(body, p).ravel() for p in PARAMETERS])
                 )
-                pooled = _derived(fit.pooled[i], self.gravity)
+                own = dict(zip(REPORTED, model.reported(own_log, self.gravity).T, strict=True))
+                pooled = dict(
+                    zip(REPORTED, model.reported(fit.pooled[i], self.gravity).T, strict=True)
+                )
                 for p in REPORTED:
-                    olo, ohi = _hdi(own[p], hdi_prob)
-                    plo, phi = _hdi(pooled[p], hdi_prob)
+                    olo, ohi = model.hdi_bounds(own[p], hdi_prob)
+                    plo, phi = model.hdi_bounds(pooled[p], hdi_prob)
                     rows.append(
                         {
                             "subject": study.name,
@@ -841,7 +821,7 @@ class PopulationPosterior:
         draws = self.predictive(body, seed=None, **covariates)
         rows = []
         for p in REPORTED:
-            lo, hi = _hdi(draws[p], hdi_prob)
+            lo, hi = model.hdi_bounds(draws[p], hdi_prob)
             rows.append(
                 {
                     "parameter": p,

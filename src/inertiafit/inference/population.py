@@ -40,7 +40,7 @@ import numpy as np
 
 from inertiafit._checks import check_positive
 from inertiafit.errors import InputError
-from inertiafit.physics import GRAVITY, PARAMETERS
+from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED, gravity_moment, inertia
 
 __all__ = [
     "DEFAULT_COVARIATES",
@@ -52,9 +52,11 @@ __all__ = [
     "SubjectDraws",
     "box_mass",
     "correlation_matrix",
+    "hdi_bounds",
     "hyper_log_prior",
     "log_likelihood",
     "predictive_draws",
+    "reported",
     "sample_hyperprior",
 ]
 
@@ -440,14 +442,24 @@ def predictive_draws(
     _, log_sigma, t = split_vector(design, z)
     chol = np.exp(log_sigma)[:, :, None] * correlation_cholesky(np.tanh(t))
     eps = np.einsum("kij,kj->ki", chol, rng.standard_normal((len(z), 3)))
-    m, x, rho = np.exp(mu + eps).T
-    return {
-        "mass": m,
-        "com_distance": x,
-        "radius_of_gyration": rho,
-        "inertia": m * (rho**2 + x**2),
-        "gravity_moment": m * gravity * x,
-    }
+    return dict(zip(REPORTED, np.moveaxis(reported(mu + eps, gravity), -1, 0), strict=True))
+
+
+def hdi_bounds(x, prob: float) -> tuple[float, float]:
+    """The highest-density interval of draws ``x`` (``arviz_stats.hdi``) as two floats."""
+    from arviz_stats import hdi
+
+    lo, hi = (float(v) for v in hdi(np.asarray(x).ravel(), prob=prob))
+    return lo, hi
+
+
+def reported(log_theta: np.ndarray, gravity: float = GRAVITY) -> np.ndarray:
+    """``m, x, rho, I, M_g`` ``(..., 5)`` from ``log(m, x, rho)`` ``(..., 3)``.
+
+    In the order of :data:`~inertiafit.physics.REPORTED`.
+    """
+    m, x, r = np.moveaxis(np.exp(log_theta), -1, 0)
+    return np.stack([m, x, r, inertia(m, r, x), gravity_moment(m, x, gravity)], axis=-1)
 
 
 def natural_terms(design: Design, z: np.ndarray) -> dict[tuple[str, str], np.ndarray]:

@@ -21,10 +21,16 @@ from inertiafit import __version__
 from inertiafit.errors import InputError
 from inertiafit.formatting import interval, number, plural
 from inertiafit.inference.anthropometric import segment_values
-from inertiafit.inference.population import LOG_COVARIATES, natural_terms, predictive_draws
+from inertiafit.inference.population import (
+    LOG_COVARIATES,
+    hdi_bounds,
+    natural_terms,
+    predictive_draws,
+    reported,
+)
 from inertiafit.inference.priors import priors_from_posterior
 from inertiafit.io.outputs import write_csv
-from inertiafit.physics import PARAMETERS, REPORTED, UNITS, gravity_moment, inertia
+from inertiafit.physics import PARAMETERS, REPORTED, UNITS
 from inertiafit.plotting.style import (
     DOUBLE_COLUMN,
     PALETTE,
@@ -53,21 +59,8 @@ _COVARIATE_UNITS = {"body_mass": "kg", "segment_length": "m", "height": "m"}
 _BAND_DRAWS = 4000
 
 
-def _hdi(x: np.ndarray, prob: float) -> tuple[float, float]:
-    from arviz_stats import hdi
-
-    lo, hi = (float(v) for v in hdi(np.asarray(x).ravel(), prob=prob))
-    return lo, hi
-
-
 def _thin(flat: np.ndarray) -> np.ndarray:
     return flat[np.linspace(0, len(flat) - 1, min(_BAND_DRAWS, len(flat))).round().astype(int)]
-
-
-def _derived(log_theta: np.ndarray, gravity: float) -> np.ndarray:
-    """``m, x, rho, I, M_g`` ``(..., 5)`` of ``log(m, x, rho)`` ``(..., 3)``."""
-    m, x, r = np.moveaxis(np.exp(log_theta), -1, 0)
-    return np.stack([m, x, r, inertia(m, r, x), gravity_moment(m, x, gravity)], axis=-1)
 
 
 def _covariates(pop: PopulationPosterior, body: str) -> list[dict[str, float]]:
@@ -93,7 +86,7 @@ def _forest(pop: PopulationPosterior, body: str, subjects: pd.DataFrame, hdi_pro
             for draws, yi in zip(predictive, y, strict=False):  # none without the studies
                 ax.fill_betweenx(
                     [yi - 0.4, yi + 0.4],
-                    *_hdi(draws[p], hdi_prob),
+                    *hdi_bounds(draws[p], hdi_prob),
                     color=PRIOR_COLOUR,
                     alpha=0.15,
                     lw=0,
@@ -212,7 +205,7 @@ def _segment(study: StudyPosterior, body: str) -> str | None:
 def _table_values(table: str, segment: str, body_mass: float, length: float, gravity: float):
     """A table's ``m, x, rho, I, M_g`` ``(5,)`` for one subject (raises InputError)."""
     v = segment_values(table, segment, body_mass, length)
-    return _derived(np.log([v.mass, v.com_distance, v.radius_of_gyration]), gravity)
+    return reported(np.log([v.mass, v.com_distance, v.radius_of_gyration]), gravity)
 
 
 def _percent(logs: np.ndarray, prob: float) -> tuple[float, float, float]:
@@ -248,14 +241,14 @@ def _tables(pop: PopulationPosterior, body: str, hdi_prob: float):
                 notes.append(f"{study.name}: {_TABLE_NAMES[table]}: {exc}")
     terms = natural_terms(fit.design, fit.flat)
     typical = np.log(
-        _derived(np.column_stack([terms[p, "intercept"] for p in PARAMETERS]), pop.gravity)
+        reported(np.column_stack([terms[p, "intercept"] for p in PARAMETERS]), pop.gravity)
     )
     size = ("body_mass", "segment_length")
     reference = {c: fit.design.reference(c) for c in size if c in fit.design.centers}
     rows, versus = [], []
     for table, per in ((t, v) for t, v in values.items() if v):
         own = np.log(np.array(list(per.values())))[:, None, :]  # (n, 1, 5)
-        ratio = (own - np.log(_derived(fit.pooled[list(per)], pop.gravity))).mean(axis=0)
+        ratio = (own - np.log(reported(fit.pooled[list(per)], pop.gravity))).mean(axis=0)
         rows += [
             [body, table, p, *_percent(ratio[:, j], hdi_prob), len(per)]
             for j, p in enumerate(REPORTED)
