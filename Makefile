@@ -11,7 +11,7 @@ FUZZ_ARGS ?=
 # NumPy's SIMD kernels newer than x86-64-v2 (AVX2, AVX-512), switched off for `make repro-check`.
 OLD_CPU  := NPY_DISABLE_CPU_FEATURES="X86_V3 X86_V4 AVX512_ICL AVX512_SPR"
 
-.PHONY: demo test test-fast repro-check lint fuzz bench bench-quick docs lock clean
+.PHONY: demo test tutorials test-fast repro-check lint fuzz bench bench-quick docs lock clean
 
 $(PY):
 	@PYTHON=$$(tools/find-python) && echo "creating $(VENV) with $$PYTHON" && "$$PYTHON" -m venv $(VENV)
@@ -28,10 +28,13 @@ demo: $(STAMP)
 # (git ignores it) even where the environment turns that off (PYTHONDONTWRITEBYTECODE, set on
 # the development machine): each of the suite's two processes otherwise compiles and rewrites
 # every test module again on every run (measured: collecting took 11.5 s, and 5.7 s cached).
-test test-fast repro-check fuzz: export PYTHONDONTWRITEBYTECODE :=
+test tutorials test-fast repro-check fuzz: export PYTHONDONTWRITEBYTECODE :=
 
 test: $(STAMP)
 	$(PY) -m pytest -n 2 --dist worksteal $(PYTEST_ARGS)
+
+tutorials: $(STAMP)
+	INERTIAFIT_TUTORIALS=1 $(PY) -m pytest -n 2 --dist worksteal tests/test_tutorial_population.py $(PYTEST_ARGS)
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -n 2 --dist worksteal -m "not slow" $(PYTEST_ARGS)
