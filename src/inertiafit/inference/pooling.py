@@ -344,7 +344,7 @@ def _moment_start(features: model.Features, matrices) -> np.ndarray:
     for k in range(3):
         coef, *_ = np.linalg.lstsq(matrices[k], mean[:, k], rcond=None)
         coefs += [float(c) for c in coef]
-    return np.asarray(coefs + [math.log(0.3)] * 3 + [0.0] * 3)
+    return np.asarray(coefs + [math.log(0.3)] * 3 + [0.0] * 3)  # scatters set by the caller
 
 
 #: Smallest scatter the EM start takes (the sampler then goes where the density says).
@@ -479,8 +479,17 @@ def fit_population(
     # EM finds the likelihood's mode; a short quasi-Newton polish adds the hyperprior.
     em = model.to_sampled(design, _em_start(features, design, matrices)[None])[0]
     scatters = slice(design.ndim - 6, design.ndim - 3)
-    if not np.isfinite(log_post(em))[0]:  # EM drawn to a few draws: the subjects' means
-        em = model.to_sampled(design, _moment_start(features, matrices)[None])[0]
+    if not np.isfinite(log_post(em))[0]:
+        # EM drawn to a few draws: the subjects' means, with scatters from wide to narrow (a
+        # subject's far excursion against its own prior weighs e^11 times the rest under a
+        # wide population, and a narrower one gives it no weight).
+        moments = _moment_start(features, matrices)
+        for sigma in (0.3, 0.15, 0.08, 0.04, 0.02):
+            moments[scatters] = math.log(sigma)
+            candidate = model.to_sampled(design, moments[None])[0]
+            if np.isfinite(log_post(candidate))[0]:
+                em = candidate
+                break
     while not np.isfinite(log_post(em))[0] and em[scatters].min() < math.log(2.0):
         em[scatters] += math.log(1.5)  # some subject's ESS too low there: wider scatters
     polish = optimize.minimize(
