@@ -754,9 +754,9 @@ class PopulationPosterior:
                 lines.append(
                     "  decided by the hyperprior, not the subjects: "
                     + ", ".join(prior_only)
-                    + ". With only I and M_g per subject, m, x and rho lie on a ridge; a weighed "
-                    "segment, a second mounting or a wider spread of segment lengths would "
-                    "separate them."
+                    + ". With only I and M_g per subject, m, x and rho lie on a ridge that each "
+                    "subject's own prior bounds; weighed segments or a second mounting would "
+                    "separate them (a spread of segment lengths only narrows them)."
                 )
         return "\n".join(lines)
 
