@@ -31,7 +31,9 @@ pytestmark = pytest.mark.skipif(
 def chromium(*args, tmp_path):
     assert CHROMIUM is not None, "chromium missing: .ci/run must install Debian's chromium"
     cmd = [CHROMIUM, *FLAGS, f"--user-data-dir={tmp_path / 'profile'}", *args]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=True)
+    return subprocess.run(
+        cmd, capture_output=True, text=True, encoding="utf-8", timeout=120, check=True
+    )
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +106,10 @@ def study_report(study_out):
 def layout(report, tmp_path, width=1280):
     """What :data:`MEASURE` finds in ``report`` at ``width`` px: scroll width, tables, faults."""
     page = tmp_path / "measured.html"
-    page.write_text(report.read_text(encoding="utf-8").replace("</body>", MEASURE + "</body>"))
+    page.write_text(
+        report.read_text(encoding="utf-8").replace("</body>", MEASURE + "</body>"),
+        encoding="utf-8",
+    )
     dom = chromium(
         f"--window-size={width},900",
         "--virtual-time-budget=5000",

@@ -323,7 +323,7 @@ def test_report_refuses_a_truncated_traces_table(study_out, tmp_path, capsys):
     copy = tmp_path / "copy"
     shutil.copytree(study_out, copy)
     lines = (copy / "traces.csv").read_text().splitlines(keepends=True)
-    (copy / "traces.csv").write_text("".join(lines[: len(lines) // 2]))
+    (copy / "traces.csv").write_text("".join(lines[: len(lines) // 2]), encoding="utf-8")
     before = {p.name: p.read_bytes() for p in copy.iterdir() if p.is_file()}
     assert main(["report", str(copy)]) == 2
     err = capsys.readouterr().err.strip()
