@@ -651,7 +651,8 @@ class PopulationPosterior:
         self.studies = studies
         self.gravity = gravity
         self.seed = seed
-        self._subjects = subjects
+        self._stored = subjects  # subjects.csv as a population.nc holds it
+        self._cache: dict[tuple[str, float], pd.DataFrame] = {}  # tables, by hdi_prob
         self.bodies = tuple(fits)
 
     # -- tables ---------------------------------------------------------------------------
@@ -662,6 +663,12 @@ class PopulationPosterior:
         posterior SD under 0.3 or over 0.7 of its hyperprior SD, as for a body's parameters).
         """
         check_probability(hdi_prob, "hdi_prob")
+        key = ("summary", float(hdi_prob))
+        if key not in self._cache:
+            self._cache[key] = self._summary(hdi_prob)
+        return self._cache[key].copy()
+
+    def _summary(self, hdi_prob: float) -> pd.DataFrame:
         rows = []
         for body, fit in self.fits.items():
             design = fit.design
@@ -782,8 +789,14 @@ class PopulationPosterior:
     def subjects(self, hdi_prob: float = 0.95) -> pd.DataFrame:
         """``subjects.csv``: each subject's own and pooled estimates side by side."""
         check_probability(hdi_prob, "hdi_prob")
-        if self._subjects is not None:
-            return self._subjects.copy()
+        if self._stored is not None:
+            return self._stored.copy()
+        key = ("subjects", float(hdi_prob))
+        if key not in self._cache:
+            self._cache[key] = self._subject_rows(hdi_prob)
+        return self._cache[key].copy()
+
+    def _subject_rows(self, hdi_prob: float) -> pd.DataFrame:
         rows = []
         for body, fit in self.fits.items():
             for i, study in enumerate(self.studies[body]):
@@ -815,8 +828,7 @@ class PopulationPosterior:
                             "box_mass": float(fit.box_mass[i]),
                         }
                     )
-        self._subjects = pd.DataFrame(rows, columns=SUBJECT_COLUMNS)
-        return self._subjects.copy()
+        return pd.DataFrame(rows, columns=SUBJECT_COLUMNS)
 
     # -- prediction -----------------------------------------------------------------------
     def predictive(

@@ -605,9 +605,7 @@ def population_tree(fits: Mapping[str, PopulationFit], subjects, *, gravity: flo
     bodies = list(fits)
     first = fits[bodies[0]]
     n_keep = _common_draws(fits)
-    chains = first.draws.shape[0]
-    if any(f.draws.shape[0] != chains for f in fits.values()):
-        chains = min(f.draws.shape[0] for f in fits.values())
+    chains = min(f.draws.shape[0] for f in fits.values())
     coords = [f"{p}:{t}" for p, t in first.design.terms]
     hyper = np.empty((chains, n_keep, len(bodies), first.design.ndim))
     term_names = [f"{p}:{t}" for p, t in natural_terms(first.design, first.flat[:1])]
