@@ -57,7 +57,10 @@ def make_studies(folder: Path, n: int, seed: int) -> list[Path]:
 def machine_busy() -> float:
     """CPU seconds the whole machine has been busy (every core, every process): /proc/stat."""
     try:
-        ticks = [int(x) for x in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:9]]
+        ticks = [
+            int(x)
+            for x in Path("/proc/stat").read_text(encoding="utf-8").split("\n", 1)[0].split()[1:9]
+        ]
     except OSError:
         return math.nan
     idle = ticks[3] + ticks[4]  # idle, iowait

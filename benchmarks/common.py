@@ -25,7 +25,7 @@ def machine() -> dict:
 
     cpu = "unknown"
     try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
             if line.startswith("model name"):
                 cpu = line.split(":", 1)[1].strip()
                 break
@@ -33,7 +33,7 @@ def machine() -> dict:
         pass
     mem_gib = float("nan")
     try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
+        for line in Path("/proc/meminfo").read_text(encoding="utf-8").splitlines():
             if line.startswith("MemTotal"):
                 mem_gib = int(line.split()[1]) / 2**20
                 break
@@ -157,7 +157,7 @@ def standalone(
     result = run(quick=args.quick, seed=args.seed, **extra)
     print(result["table"])
     if args.json:
-        with open(args.json, "w") as fh:
+        with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(result, fh, indent=2)
 
 

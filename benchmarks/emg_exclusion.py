@@ -87,7 +87,9 @@ def one_study(
             quasi_static_speed=quasi_static_speed,
             emg=EmgSimulation(reflex=chosen),
         )
-        reflexes_truth = tomllib.loads((Path(tmp) / "truth.toml").read_text())["emg"]
+        reflexes_truth = tomllib.loads((Path(tmp) / "truth.toml").read_text(encoding="utf-8"))[
+            "emg"
+        ]
         assert reflexes_truth["reflex_trials"] == chosen
         start = time.perf_counter()
         try:
@@ -98,7 +100,9 @@ def one_study(
         out["seconds"] = time.perf_counter() - start
         flagged = Path(tmp) / "flag.toml"
         flagged.write_text(
-            manifest.read_text().replace('unit = "V"', 'unit = "V"\non_activity = "flag"')
+            manifest.read_text(encoding="utf-8").replace(
+                'unit = "V"', 'unit = "V"\non_activity = "flag"'
+            )
         )
         kept = process_study(flagged)
         trials = kept.all_trials

@@ -174,7 +174,7 @@ def timed_child(cmd: list[str]) -> tuple[float, float]:
         proc.returncode = os.waitstatus_to_exitcode(status)
         if proc.returncode != 0:
             raise RuntimeError(f"{cmd} failed ({proc.returncode}):\n{err[-2000:]}")
-        text = Path(rss.name).read_text().split()
+        text = Path(rss.name).read_text(encoding="utf-8").split()
         kib = int(text[-1]) if gnu_time and text else usage.ru_maxrss  # KiB on Linux
     return seconds, kib / 1024
 
@@ -245,7 +245,7 @@ def run(*, quick: bool = False, seed: int = 11) -> dict:
             ],
             check=True,
         )
-        stages = json.loads(stage_file.read_text())
+        stages = json.loads(stage_file.read_text(encoding="utf-8"))
         if stages["rc"]:
             raise RuntimeError(f"the timed `inertiafit run` exited with {stages['rc']}")
         top = []

@@ -102,7 +102,9 @@ def one_study(design: str, seed: int, *, rigid_posterior: bool = True) -> dict:
                 gravity["attachment+forearm"].gravity_moment - gravity["attachment"].gravity_moment
             )
         out["pinned_by"] = processed.living.pinned_by("attachment+forearm")
-        damping = tomllib.loads((Path(tmp) / "truth.toml").read_text())["passive"]["damping"]
+        damping = tomllib.loads((Path(tmp) / "truth.toml").read_text(encoding="utf-8"))["passive"][
+            "damping"
+        ]
         out["damping_z"] = (processed.damping[0] - damping) / processed.damping[1]
     m, rho, x = truth["forearm"]
     true = {"I": float(inertia(m, rho, x)), "M_g": float(gravity_moment(m, x, 9.81))}

@@ -166,7 +166,7 @@ def one_study(design: str, seed: int, *, sample: bool = True, joint: str = "elbo
             living=living,
             phi=phi,
         )
-        doc = tomllib.loads((Path(tmp) / "truth.toml").read_text())
+        doc = tomllib.loads((Path(tmp) / "truth.toml").read_text(encoding="utf-8"))
         joint_doc = {k: v for k, v in doc["passive"].items() if k != "postures"}
         actual = PassiveTruth(**(joint_doc | {"range": tuple(joint_doc["range"])}))
         condition = doc["conditions"]["B"]

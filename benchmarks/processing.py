@@ -145,7 +145,7 @@ def run(*, quick: bool = False, seed: int = 7) -> dict:
         manifest = paper_study(tmp, seed=seed)
         files = sorted((Path(tmp) / "data").glob("*.csv"))
         mb = sum(f.stat().st_size for f in files) / 1e6
-        truth = tomllib.loads((Path(tmp) / "truth.toml").read_text())["conditions"]
+        truth = tomllib.loads((Path(tmp) / "truth.toml").read_text(encoding="utf-8"))["conditions"]
         process_study(manifest)  # warm-up: imports, page cache
         floor(files)
         study = load_study(manifest)

@@ -63,7 +63,7 @@ def pymc_elsewhere(python: str, quick: bool) -> dict:
         subprocess.run(
             [*cmd, *(["--quick"] if quick else [])], check=True, stdout=subprocess.DEVNULL
         )
-        return json.loads(out.read_text())
+        return json.loads(out.read_text(encoding="utf-8"))
 
 
 def main() -> None:
@@ -130,7 +130,7 @@ def main() -> None:
     total = time.perf_counter() - t_all
     print(f"\nall benchmarks: {total:.0f} s")
     if args.json:
-        with open(args.json, "w") as fh:
+        with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(
                 {
                     "machine": info,

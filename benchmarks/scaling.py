@@ -140,7 +140,7 @@ def timed_analysis(manifest: Path, seed: int) -> tuple[dict, object]:
 
 
 def hdi_coverage(post, truth_file: Path) -> tuple[float, int, bool, float]:
-    truth = tomllib.loads(truth_file.read_text())["bodies"]
+    truth = tomllib.loads(truth_file.read_text(encoding="utf-8"))["bodies"]
     s = post.summary(0.95)
     s = s[s["parameter"] == "inertia"].set_index("body")
     inside = [

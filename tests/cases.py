@@ -102,7 +102,7 @@ def as_ordinary_user(
             os.chown(folder, *ids)
         code = compile(script, "<as_ordinary_user>", "exec")
         return in_fork(
-            lambda: exec(code, {}),  # noqa: S102 (a test's own script)
+            lambda: exec(code, {}),
             cwd=folder,
             imports=imports,
             user=ids,
@@ -126,7 +126,10 @@ def in_fork(
     drops to ``user`` (uid, gid) if given. Whatever it registers or sets stays in the child.
     ``timeout`` (s) kills it with SIGALRM (status -14).
     """
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+    with (
+        tempfile.TemporaryFile("w+", encoding="utf-8") as out,
+        tempfile.TemporaryFile("w+", encoding="utf-8") as err,
+    ):
         with warnings.catch_warnings():
             # pytest-xdist's threads: the child only runs the body and exits
             warnings.simplefilter("ignore", DeprecationWarning)

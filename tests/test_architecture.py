@@ -198,7 +198,9 @@ def test_every_module_declares_its_public_names():
 
 
 def test_layers_in_the_contract_are_the_layers_in_the_architecture_page():
-    contract = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]
+    contract = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"][
+        "importlinter"
+    ]
     layers = next(c for c in contract["contracts"] if c["type"] == "layers")["layers"]
     page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
     diagram = page.split("```text", 1)[1].split("```", 1)[0]

@@ -55,7 +55,9 @@ def studies(tmp_path_factory):
     a = _small_study(root / "a", TRUTHS["a"], seed=11)
     b = _small_study(root / "b", TRUTHS["b"], seed=12)
     broken = a.with_name("broken.toml")
-    broken.write_text(a.read_text().replace("data/A_240_02.csv", "data/missing.csv", 1))
+    broken.write_text(
+        a.read_text(encoding="utf-8").replace("data/A_240_02.csv", "data/missing.csv", 1)
+    )
     return [a, broken, b]
 
 
@@ -125,7 +127,9 @@ def test_batch_records_every_study_and_a_bad_one_does_not_stop_the_others(serial
 def test_each_study_recovers_its_own_truth(serial, studies):
     out = serial[0].out
     for key, name in (("a", "a-study"), ("b", "b-study")):
-        truth = tomllib.loads((Path(studies[0]).parents[1] / key / "truth.toml").read_text())
+        truth = tomllib.loads(
+            (Path(studies[0]).parents[1] / key / "truth.toml").read_text(encoding="utf-8")
+        )
         t = truth["bodies"]["attachment"]
         s = pd.read_csv(out / name / "summary.csv").set_index("parameter")
         for p in ("inertia", "gravity_moment"):
@@ -400,13 +404,13 @@ def test_out_that_may_not_be_replaced_is_refused(studies, tmp_path, capsys):
     (theirs / "notes.txt").write_text("keep me")
     assert main(["run-many", str(studies[0]), "--out", str(theirs)]) == 2
     assert "was not written by inertiafit" in capsys.readouterr().err
-    assert (theirs / "notes.txt").read_text() == "keep me"
+    assert (theirs / "notes.txt").read_text(encoding="utf-8") == "keep me"
     # an earlier output folder that now holds a manifest: replacing it would delete the input
     old = tmp_path / "old"
     old.mkdir()
     (old / MARKER).write_text("")
     manifest = old / "study.toml"
-    manifest.write_text(Path(studies[0]).read_text())
+    manifest.write_text(Path(studies[0]).read_text(encoding="utf-8"))
     assert main(["run-many", str(manifest), "--out", str(old)]) == 2
     assert f"holds the input {manifest} of this run" in capsys.readouterr().err
     assert manifest.is_file()
@@ -426,7 +430,7 @@ def test_an_unexpected_error_is_recorded_with_its_traceback(studies, tmp_path, m
         "RuntimeError: boom second line",
         "",
     )
-    trace = (tmp_path / "out" / "study-traceback.txt").read_text()
+    trace = (tmp_path / "out" / "study-traceback.txt").read_text(encoding="utf-8")
     assert "RuntimeError: boom" in trace
     assert "run_one" in trace
 

@@ -276,7 +276,7 @@ def test_a_path_holding_an_argument_name_is_shown_as_it_is(study, tmp_path):
 def test_a_manifest_key_holding_an_argument_name_is_shown_as_it_is(study, tmp_path):
     folder = copy_study(study, tmp_path)
     manifest = folder / "study.toml"
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     assert "[bodies.attachment]\n" in text
     manifest.write_text(
         text.replace(
@@ -293,7 +293,7 @@ def test_a_manifest_key_holding_an_argument_name_is_shown_as_it_is(study, tmp_pa
 def test_torque_sign_advice_never_repeats_what_is_set(study, tmp_path):
     folder = copy_study(study, tmp_path)
     manifest = folder / "study.toml"
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     name = min((folder / "data").glob("*_240_01.csv")).name
     block = f'file = "data/{name}"\n'
     assert text.count(block) == 1
@@ -329,7 +329,9 @@ def test_a_file_that_is_not_a_trial_is_never_echoed(study, tmp_path):
     secret.write_text("SECRET root:x:0:0:root:/root\nsecond line\n")
     manifest = folder / "study.toml"
     name = min((folder / "data").glob("*_240_01.csv")).name
-    manifest.write_text(manifest.read_text().replace(f"data/{name}", secret.as_posix()))
+    manifest.write_text(
+        manifest.read_text(encoding="utf-8").replace(f"data/{name}", secret.as_posix())
+    )
     code, err = run_cli(["run", str(manifest), "--out", str(tmp_path / "o")])
     assert code == 2
     assert_one_line(err, re.escape(str(secret)), "is it a trial file")

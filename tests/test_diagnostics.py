@@ -186,7 +186,7 @@ def test_a_prior_box_without_a_solution_marks_its_conditions_trials(
 ):
     # each value inside what the box allows, the pair not: m >= (M_g/g)^2/I = 2.3 kg > 0.8 kg
     manifest = copy_of(base, tmp_path)
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     start = text.index("prior = {")
     end = text.index("}", start) + 1
     box = "prior = { mass = 0.5, radius_of_gyration = 0.2, com_distance = 1.0, spread = 0.6 }"
@@ -208,7 +208,7 @@ def second_quasi_static(manifest: Path, factor: float) -> None:
     frame = pd.read_csv(manifest.parent / QS)
     frame["torque"] = frame.torque * factor
     frame.to_csv(manifest.parent / "data/A_quasistatic_2.csv", index=False)
-    with manifest.open("a") as fh:
+    with manifest.open("a", encoding="utf-8") as fh:
         fh.write('\n[[trials]]\nfile = "data/A_quasistatic_2.csv"\nbodies = ["attachment"]\n')
         fh.write('kind = "quasi-static"\n')
 
@@ -284,7 +284,7 @@ def test_one_file_written_with_the_other_sign_is_told_its_torque_sign(base, tmp_
     assert list(table.status) == ["ok", "refused", "ok", "ok"]
     assert list(table.loc[FASTS, "inertia"].round(2)) == [-0.4, 0.2, 0.2]
     # following the advice gives the trial its siblings' inertia
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     start = text.index(f'file = "{FASTS[0]}"')
     manifest.write_text(text[:start] + text[start:].replace("\n", "\ntorque_sign = -1\n", 1))
     processed = process_study(manifest)

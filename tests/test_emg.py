@@ -218,7 +218,7 @@ def test_bad_emg_settings_are_one_line_errors(tmp_path, emg, unit, expected):
 def test_a_bad_emg_cell_names_its_line(tmp_path):
     values = np.zeros(400)
     path = _csv(tmp_path, {"biceps": values})
-    lines = path.read_text().splitlines()
+    lines = path.read_text(encoding="utf-8").splitlines()
     lines[12] = lines[12].rsplit(",", 1)[0] + ",nan"
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(InputError, match=r"EMG column 'biceps' has a missing .* at line 13"):

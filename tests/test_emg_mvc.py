@@ -92,14 +92,14 @@ def _with_mvc(
         data[m] = data[m] * target / peaks[m]
     data.to_csv(out / "data" / "A_mvc.csv", index=False)
     path = out / "study.toml"
-    text = path.read_text().replace('unit = "V"', f'unit = "V"\n{extra}')
+    text = path.read_text(encoding="utf-8").replace('unit = "V"', f'unit = "V"\n{extra}')
     path.write_text(text + trial + emg)
     return path
 
 
 def _load(out: Path, trial: str, emg: str):
     path = out / "probe.toml"
-    path.write_text((out / "study.toml").read_text() + trial + emg)
+    path.write_text((out / "study.toml").read_text(encoding="utf-8") + trial + emg)
     return load_study(path)
 
 
@@ -187,7 +187,7 @@ def _manifest_error(base: Path, out: Path, trial: str, extra: str = "") -> str:
     shutil.copytree(base.parent, out)
     shutil.copy(out / "data" / "A_240_01.csv", out / "data" / "A_mvc.csv")
     path = out / "study.toml"
-    text = path.read_text().replace('unit = "V"', f'unit = "V"\n{extra}')
+    text = path.read_text(encoding="utf-8").replace('unit = "V"', f'unit = "V"\n{extra}')
     path.write_text(text + trial)
     with pytest.raises(InputError) as info:
         load_study(path)
@@ -232,7 +232,7 @@ def test_an_mvc_trial_with_a_speed_or_its_own_mounting_is_one_error(base, tmp_pa
 def test_an_mvc_trial_that_cannot_be_read_with_skip_is_one_error(base, tmp_path):
     path = _with_mvc(base, tmp_path / "s")
     (path.parent / "data" / "A_mvc.csv").write_text("time,angle\n0,0\n")
-    path.write_text('on_trial_error = "skip"\n' + path.read_text())
+    path.write_text('on_trial_error = "skip"\n' + path.read_text(encoding="utf-8"))
     with pytest.raises(InputError) as info:
         process_study(path)
     message = str(info.value)

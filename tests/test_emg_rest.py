@@ -141,7 +141,9 @@ def test_stop_refuses_a_study_whose_rest_trial_contracts(contracted, tmp_path):
     out = tmp_path / "stop"
     shutil.copytree(contracted.parent, out)
     path = out / "study.toml"
-    path.write_text(path.read_text().replace('unit = "V"', 'unit = "V"\non_activity = "stop"'))
+    path.write_text(
+        path.read_text(encoding="utf-8").replace('unit = "V"', 'unit = "V"\non_activity = "stop"')
+    )
     with pytest.raises(InputError) as info:
         process_study(path)
     message = str(info.value)

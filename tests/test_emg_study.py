@@ -67,7 +67,7 @@ def _with(manifest: Path, tmp_path: Path, extra: str) -> Path:
     out = tmp_path / "copy"
     shutil.copytree(manifest.parent, out)
     path = out / "study.toml"
-    path.write_text(path.read_text().replace('unit = "V"', f'unit = "V"\n{extra}'))
+    path.write_text(path.read_text(encoding="utf-8").replace('unit = "V"', f'unit = "V"\n{extra}'))
     return path
 
 
@@ -84,14 +84,16 @@ def test_emg_leaves_the_other_channels_and_the_clean_trials_alone(emg_study, tmp
         assert same == (name not in REFLEX), name  # a reflex adds its torque, nothing else
         assert np.array_equal(with_emg["angle"], without["angle"])
     # the manifest gains only the [emg] table
-    extra = set(emg_study.read_text().splitlines()) - set(plain.read_text().splitlines())
+    extra = set(emg_study.read_text(encoding="utf-8").splitlines()) - set(
+        plain.read_text(encoding="utf-8").splitlines()
+    )
     assert extra == {"[emg]", 'columns = ["biceps", "triceps"]', 'unit = "V"'}
-    assert "[emg]" not in (plain.parent / "truth.toml").read_text()
+    assert "[emg]" not in (plain.parent / "truth.toml").read_text(encoding="utf-8")
 
 
 def test_the_reflex_torque_and_burst_are_the_models(emg_study, tmp_path):
     plain = _study(tmp_path / "plain", None)
-    truth = tomllib.loads((emg_study.parent / "truth.toml").read_text())["emg"]
+    truth = tomllib.loads((emg_study.parent / "truth.toml").read_text(encoding="utf-8"))["emg"]
     assert truth["reflex_trials"] == list(REFLEX)
     for name in REFLEX:
         reflex = truth["reflexes"][name]
@@ -176,7 +178,7 @@ def test_stop_refuses_the_study_in_one_line(emg_study, tmp_path, skip):
     extra = 'on_activity = "stop"'
     path = _with(emg_study, tmp_path, extra)
     if skip:  # on_trial_error = "skip" does not turn the refusal into a skip
-        path.write_text('on_trial_error = "skip"\n' + path.read_text())
+        path.write_text('on_trial_error = "skip"\n' + path.read_text(encoding="utf-8"))
     with pytest.raises(InputError) as info:
         process_study(path)
     message = str(info.value)

@@ -124,7 +124,7 @@ def test_biomod_read_back_by_biorbd(results, draws, tmp_path):
         ratios.append(math.sqrt(a / tensor[2, 2]))
     assert len({round(r, 6) for r in ratios}) == 3  # each draw its own longitudinal ratio
     assert all(0.5 * LONG < r < 2 * LONG for r in ratios)
-    table = (tmp_path / "out" / "export.csv").read_text().splitlines()
+    table = (tmp_path / "out" / "export.csv").read_text(encoding="utf-8").splitlines()
     assert table[0].startswith("model,body,mass")
     assert len(table) == 1 + 4
 
@@ -156,7 +156,7 @@ def test_osim_read_back_by_biobuddy(results, draws, tmp_path):
 
 def test_json_every_number(results, draws, tmp_path):
     run_export(results, fmt="json", out=tmp_path / "out", joint_axis="y", echo=lambda s: None)
-    data = json.loads((tmp_path / "out" / "model.json").read_text())
+    data = json.loads((tmp_path / "out" / "model.json").read_text(encoding="utf-8"))
     m, x, rho = _medians(draws)
     body = data["bodies"]["forearm"]
     assert body["mass"] == m
@@ -239,7 +239,7 @@ def test_bad_inputs(results, boxed, tmp_path):
     (mine / "notes.txt").write_text("keep me")
     with pytest.raises(InputError):
         run_export(results, fmt="osim", out=mine, **quiet)
-    assert (mine / "notes.txt").read_text() == "keep me"
+    assert (mine / "notes.txt").read_text(encoding="utf-8") == "keep me"
     assert not (tmp_path / "o").exists()
     # a declaration for a body the posterior does not have
     with pytest.raises(InputError, match="no body 'shank'"):

@@ -259,7 +259,7 @@ def test_simulated_mounting_and_weighing_reach_the_manifest(tmp_path):
         "attachment+weight@weight+10cm",
         "attachment+added0.5kg@30cm",
     ]
-    truth = tomllib.loads((path.parent / "truth.toml").read_text())
+    truth = tomllib.loads((path.parent / "truth.toml").read_text(encoding="utf-8"))
     w, a = PAPER_TRUTH["weight"], PAPER_TRUTH["attachment"]
     assert truth["bodies"]["weight"]["com_distance"] == w.com_distance  # the body's own truth
     moved = w.mass * (w.radius_of_gyration**2 + (w.com_distance + D) ** 2)

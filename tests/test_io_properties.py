@@ -657,7 +657,7 @@ def test_any_emg_setting_gives_input_error_or_a_trial(emg, unit, fmt):
     path = _scratch("any.csv", "\n".join(body) + "\n")
     ds = _read_only_input_errors(path, format=fmt, emg=emg, emg_unit=unit)
     if ds is not None:
-        assert fmt in ("csv",)  # the others fail on this file or refuse EMG
+        assert fmt == "csv"  # the others fail on this file or refuse EMG
         assert ("emg" in ds) == bool(emg)
 
 

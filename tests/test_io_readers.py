@@ -523,7 +523,7 @@ def test_humac_unknown_status_is_read_and_flagged_and_a_bad_status_is_an_error(t
 
 
 def test_humac_all_rows_unmeasured(tmp_path):
-    text = (DATA / "humac_ftlb.csv").read_text().replace('"1",', '"5",')
+    text = (DATA / "humac_ftlb.csv").read_text(encoding="utf-8").replace('"1",', '"5",')
     # every row Status 5 but most with real torque: one measured run, read whole (46 rows)
     assert read_trial(write(tmp_path, "all5.csv", text), format="humac").sizes["time"] == 46
     zero = "\n".join(
@@ -536,7 +536,7 @@ def test_humac_all_rows_unmeasured(tmp_path):
 
 
 def test_humac_unknown_header_unit_and_missing_column(tmp_path):
-    text = (DATA / "humac_nm_quoted.csv").read_text()
+    text = (DATA / "humac_nm_quoted.csv").read_text(encoding="utf-8")
     bad = write(tmp_path, "kgm.csv", text.replace("Newton-Meters", "Kilogram-Meters"))
     with pytest.raises(
         InputError,

@@ -64,13 +64,15 @@ def copy_of(base: Path, tmp_path: Path, name: str = "study") -> Path:
 
 def set_in_trial(manifest: Path, line: str, file: str = FAST) -> Path:
     """``line`` set in the ``[[trials]]`` entry of ``file`` (replacing a key already there)."""
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     start = text.index(f'file = "{file}"\n')
     end = text.find("[[trials]]", start)
     end = len(text) if end < 0 else end
     key = line.split("=", maxsplit=1)[0].strip()
     entry = re.sub(rf"^{key} = .*\n", "", text[start:end], flags=re.MULTILINE)
-    manifest.write_text(text[:start] + entry.rstrip("\n") + f"\n{line}\n\n" + text[end:])
+    manifest.write_text(
+        text[:start] + entry.rstrip("\n") + f"\n{line}\n\n" + text[end:], encoding="utf-8"
+    )
     return manifest
 
 
@@ -186,9 +188,9 @@ def test_an_old_entry_that_cannot_be_removed_leaves_the_new_folder_and_a_warning
     monkeypatch.setattr(outputs.shutil, "rmtree", rmtree)
     with output_folder(out) as folder:
         (folder / "summary.csv").write_text("new")
-    assert (out / "summary.csv").read_text() == "new"
+    assert (out / "summary.csv").read_text(encoding="utf-8") == "new"
     (aside,) = tmp_path.glob(".out.old-*")
-    assert (aside / "summary.csv").read_text() == "old"
+    assert (aside / "summary.csv").read_text(encoding="utf-8") == "old"
     warning = capsys.readouterr().err.strip()
     assert warning.startswith(f"inertiafit: warning: the new outputs are in {out}, but the old")
     assert "\n" not in warning
@@ -262,7 +264,7 @@ def test_a_condition_left_with_two_fast_trials_reaches_the_sampler(
     base, tmp_path, reaches_the_sampler
 ):
     manifest = copy_of(base, tmp_path)
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     last = text.index('[[trials]]\nfile = "data/A_240_03.csv"')
     manifest.write_text(text[:last])
     assert len(load_study(manifest).trials) == 3
@@ -350,7 +352,7 @@ def test_a_quasi_static_torque_signed_opposite_is_flagged(base, tmp_path):
 def test_a_truncated_traces_table_is_not_redrawn(sampled, tmp_path):
     copy = tmp_path / "out"
     shutil.copytree(sampled, copy)
-    lines = (copy / "traces.csv").read_text().splitlines(keepends=True)
+    lines = (copy / "traces.csv").read_text(encoding="utf-8").splitlines(keepends=True)
     (copy / "traces.csv").write_text("".join(lines[: len(lines) // 2]))
     refused(["report", str(copy)], tmp_path, r"traces\.csv: \d+ bytes where inertiafit wrote")
 
@@ -374,7 +376,9 @@ def test_gravity_inf_is_one_line(tmp_path):
 )
 def test_reader_options_are_one_line(base, tmp_path, option):
     manifest = copy_of(base, tmp_path)
-    text = manifest.read_text().replace("[defaults]\n", f"[defaults]\noptions = {{ {option} }}\n")
+    text = manifest.read_text(encoding="utf-8").replace(
+        "[defaults]\n", f"[defaults]\noptions = {{ {option} }}\n"
+    )
     manifest.write_text(text)
     run_refused(manifest, tmp_path, r"options\.(delimiter|decimal): expected one character")
 
@@ -389,14 +393,16 @@ def test_biodex_set_empty_list_is_one_line():
 )
 def test_a_body_name_that_cannot_name_a_file_is_one_line(base, tmp_path, name):
     manifest = copy_of(base, tmp_path)
-    text = manifest.read_text().replace("[bodies.attachment]", f'[bodies."{name}"]')
+    text = manifest.read_text(encoding="utf-8").replace(
+        "[bodies.attachment]", f'[bodies."{name}"]'
+    )
     manifest.write_text(text.replace('bodies = ["attachment"]', f'bodies = ["{name}"]'))
     run_refused(manifest, tmp_path, r"study\.toml: bodies: body .*: expected ")
 
 
 def test_nul_in_a_trial_path_is_one_line(base, tmp_path):
     manifest = copy_of(base, tmp_path)
-    manifest.write_text(manifest.read_text().replace(FAST, "data/A\\u0000240.csv"))
+    manifest.write_text(manifest.read_text(encoding="utf-8").replace(FAST, "data/A\\u0000240.csv"))
     run_refused(manifest, tmp_path, r"trials\[1\]\.file: a path cannot hold a NUL character")
 
 
@@ -417,14 +423,14 @@ def test_a_symlinked_out_is_followed_and_kept(tmp_path):
     with output_folder(link) as folder:
         (folder / "summary.csv").write_text("new")
     assert link.is_symlink()
-    assert (target / "summary.csv").read_text() == "new"
+    assert (target / "summary.csv").read_text(encoding="utf-8") == "new"
 
 
 def test_report_on_text_in_trials_csv_is_one_line(sampled, tmp_path):
     # a number overwritten by text of its length (the marker's size holds)
     copy = tmp_path / "out"
     shutil.copytree(sampled, copy)
-    lines = (copy / "trials.csv").read_text().splitlines(keepends=True)
+    lines = (copy / "trials.csv").read_text(encoding="utf-8").splitlines(keepends=True)
     cells = lines[2].split(",")
     column = lines[0].split(",").index("inertia")
     cells[column] = "x" * len(cells[column])
@@ -459,7 +465,7 @@ def test_a_path_holding_an_option_name_is_shown_as_it_is(base, tmp_path):
 
 def test_a_manifest_key_holding_an_option_name_is_shown_as_it_is(base, tmp_path):
     manifest = copy_of(base, tmp_path)
-    text = manifest.read_text().replace(
+    text = manifest.read_text(encoding="utf-8").replace(
         "[bodies.attachment]\n", "[bodies.attachment]\ncom_distance = { value = 0.2, sd = -1 }\n"
     )
     manifest.write_text(text)
@@ -526,7 +532,7 @@ def test_data_problems_are_reported_as_data_problems(
         low = frame.angle.min() + 40
         frame[(frame.angle >= low) & (frame.angle <= low + 2.5)].to_csv(qs, index=False)
     else:
-        text = manifest.read_text()
+        text = manifest.read_text(encoding="utf-8")
         manifest.write_text(
             text.replace(
                 "[bodies.attachment]\n", "[bodies.attachment]\nmass = { value = 2850, sd = 5 }\n"
@@ -549,6 +555,6 @@ def test_a_file_that_is_not_a_trial_is_never_echoed(base, tmp_path):
     secret = tmp_path / "elsewhere" / "notes.txt"
     secret.parent.mkdir()
     secret.write_text("SECRET root:x:0:0:root:/root\nsecond line\n")
-    manifest.write_text(manifest.read_text().replace(FAST, secret.as_posix()))
+    manifest.write_text(manifest.read_text(encoding="utf-8").replace(FAST, secret.as_posix()))
     err = run_refused(manifest, tmp_path, "is it a trial file")
     assert "SECRET" not in err

@@ -53,7 +53,7 @@ def test_a_recording_saved_again_with_crlf_line_ends_is_refused(living, tmp_path
     # the same samples in other bytes (CRLF, as a spreadsheet re-saves a file): one recording
     manifest = copy_of(living, tmp_path)
     data = manifest.parent / "data"
-    text = (data / "A_180_01.csv").read_text()
+    text = (data / "A_180_01.csv").read_text(encoding="utf-8")
     (data / "A_180_09.csv").write_bytes(text.replace("\n", "\r\n").encode())
     assert (data / "A_180_09.csv").read_bytes() != (data / "A_180_01.csv").read_bytes()
     with manifest.open("a") as fh:
@@ -221,7 +221,7 @@ def test_report_in_an_unmarked_folder_overwrites_nothing(disk_fit, tmp_path):
     for name in ("summary.md", "methods.md", "report.html"):
         (paper / name).write_text(f"my own {name}\n")
     refused(["report", str(paper)], tmp_path, r"summary\.md", r"would be overwritten", MARKER)
-    assert (paper / "summary.md").read_text() == "my own summary.md\n"
+    assert (paper / "summary.md").read_text(encoding="utf-8") == "my own summary.md\n"
     clean = tmp_path / "clean"
     clean.mkdir()
     shutil.copyfile(disk_fit / "posterior.nc", clean / "posterior.nc")
@@ -241,8 +241,10 @@ def test_joint_angle_at_zero_120_for_30_is_answered_or_said(tmp_path):
     from inertiafit.pipeline.study import analyse_study
 
     manifest = simulate_living_study(tmp_path, seed=8, postures="two", trials_per_speed=3)
-    truth = tomllib.loads((tmp_path / "truth.toml").read_text())["bodies"]["forearm"]
-    text = manifest.read_text()
+    truth = tomllib.loads((tmp_path / "truth.toml").read_text(encoding="utf-8"))["bodies"][
+        "forearm"
+    ]
+    text = manifest.read_text(encoding="utf-8")
 
     def run(angle: float, curve: str):
         edited = text.replace("joint_angle_at_zero = 30.0", f"joint_angle_at_zero = {angle}")
@@ -272,7 +274,7 @@ def test_a_declared_posture_without_trials_is_said_not_reported(tmp_path):
     # it was listed in passive_parameters.csv as "rotation 45 +- 0", as if measured
     root = tmp_path / "study"
     manifest = simulate_living_study(root, seed=36, postures="one", trials_per_speed=2)
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     manifest.write_text(
         text.replace("[defaults]", "[postures.lying]\ngravity_rotation = 45\n\n[defaults]", 1)
     )

@@ -63,7 +63,7 @@ def write_csv(path: Path, time: np.ndarray, *, time_unit_scale: float = 1.0, fmt
         f"{fmt(float(s) * time_unit_scale)},{float(a / DEG)!r},{float(v / DEG)!r},{float(m)!r}"
         for s, a, v, m in zip(time, angle, velocity, torque, strict=True)
     ]
-    path.write_text("\n".join(rows) + "\n")
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
     return path
 
 
@@ -196,7 +196,7 @@ def test_conditions_of_two_fast_trials_are_fitted_without_a_runtime_warning(livi
     fast = result.trials[result.trials["kind"] == "fast"]
     assert fast.groupby("condition").size().to_dict() == {"attachment": 2, "attachment+forearm": 2}
     # and right: each body's inertia near its truth, within its HDI's reach
-    truth = tomllib.loads((living / "truth.toml").read_text())["bodies"]
+    truth = tomllib.loads((living / "truth.toml").read_text(encoding="utf-8"))["bodies"]
     summary = result.summary().query("parameter == 'inertia'").set_index("body")
     for body, values in truth.items():
         assert summary.loc[body, "median"] == pytest.approx(values["inertia"], rel=0.1)

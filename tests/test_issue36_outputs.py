@@ -191,12 +191,12 @@ def test_the_staging_folder_of_a_killed_run_is_removed_by_the_next_run(tmp_path,
     with output_folder(out) as folder:
         (folder / "summary.csv").write_text("new")
 
-    assert (out / "summary.csv").read_text() == "new"
+    assert (out / "summary.csv").read_text(encoding="utf-8") == "new"
     assert not staging.exists()
     assert not (tmp_path / ".out.lock").exists()
     for folder in kept:
-        assert (folder / "keep.txt").read_text() == "keep"
-    assert (tmp_path / ".out.draw-abcd1234").read_text() == "a file, not a folder"
+        assert (folder / "keep.txt").read_text(encoding="utf-8") == "keep"
+    assert (tmp_path / ".out.draw-abcd1234").read_text(encoding="utf-8") == "a file, not a folder"
     assert (tmp_path / ".out.new-zzzz9999").is_symlink()
     warning = f"removed {staging}, left unfinished by a run into {out} that was killed"
     assert capsys.readouterr().err.splitlines() == [f"inertiafit: warning: {warning}"]
@@ -250,7 +250,7 @@ def test_a_standard_error_of_1e_9_of_the_value_reaches_the_sampler(tmp_path):
 @pytest.mark.parametrize("gravity", ["1e300", "98.1", "32.2", "9.18"])
 def test_a_gravity_outside_earths_is_refused_at_reading(base, tmp_path, gravity):
     manifest = copy_of(base, tmp_path)
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     assert "\ngravity = 9.81\n" in text
     manifest.write_text(text.replace("\ngravity = 9.81\n", f"\ngravity = {gravity}\n"))
     run_refused(
@@ -263,7 +263,9 @@ def test_a_gravity_outside_earths_is_refused_at_reading(base, tmp_path, gravity)
 
 def test_a_local_gravity_is_kept(base, tmp_path):
     manifest = copy_of(base, tmp_path)
-    text = manifest.read_text().replace("\ngravity = 9.81\n", "\ngravity = 9.7803\n")
+    text = manifest.read_text(encoding="utf-8").replace(
+        "\ngravity = 9.81\n", "\ngravity = 9.7803\n"
+    )
     manifest.write_text(text)
     assert load_study(manifest).gravity == 9.7803
 

@@ -111,7 +111,7 @@ def test_truth_records_lag_and_gain(tmp_path):
         noise=Noise(lag=0.002, torque_gain=0.99),
         rate=100.0,
     )
-    truth = tomllib.loads((tmp_path / "truth.toml").read_text())
+    truth = tomllib.loads((tmp_path / "truth.toml").read_text(encoding="utf-8"))
     assert truth["lag"] == 0.002
     assert truth["torque_gain"] == 0.99
 
@@ -291,7 +291,7 @@ def lagged_study(tmp_path_factory):
 
 
 def _edited(manifest, tmp_path, edit):
-    text = edit(manifest.read_text())
+    text = edit(manifest.read_text(encoding="utf-8"))
     path = manifest.parent / f"{tmp_path.name}.toml"
     path.write_text(text)
     return path

@@ -173,7 +173,7 @@ def test_the_tutorial_s_ankle_code_runs_as_printed(monkeypatch):
     code = text[start + len("```python\n") : text.index("```", start + 10)]
     monkeypatch.chdir(root)
     namespace: dict = {}
-    exec(compile(code, "living-forearm.md", "exec"), namespace)  # noqa: S102 - our own docs
+    exec(compile(code, "living-forearm.md", "exec"), namespace)
     mean, sd = namespace["mean"], namespace["sd"]
     assert mean.shape == sd.shape == (3,)
     assert np.all((sd > 0.3) & (sd < 1.0))

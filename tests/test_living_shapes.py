@@ -180,13 +180,13 @@ def measured_rotation(tmp_path_factory):
         trials_per_speed=2,
         rigid_rotation_sweeps=True,
     )
-    truth = tomllib.loads((root / "truth.toml").read_text())
+    truth = tomllib.loads((root / "truth.toml").read_text(encoding="utf-8"))
     return manifest, truth
 
 
 def _declare(manifest: Path, rotation: float, *, rigid_sweep: bool = True) -> Path:
     """The same study with the rotated posture declared at ``rotation`` deg."""
-    text = manifest.read_text().replace(
+    text = manifest.read_text(encoding="utf-8").replace(
         "gravity_rotation = 45.0", f"gravity_rotation = {rotation}"
     )
     if not rigid_sweep:  # today's design: the rigid condition in the first posture only
@@ -229,7 +229,7 @@ def test_a_rigid_sweep_measures_the_rotation_and_the_declared_one_is_checked(mea
 
 def test_a_rigid_condition_s_fast_trials_share_one_posture(measured_rotation, tmp_path):
     manifest, _ = measured_rotation
-    text = manifest.read_text()
+    text = manifest.read_text(encoding="utf-8")
     entry = '[[trials]]\nfile = "data/A_180_01.csv"\nbodies = ["attachment"]'
     start = text.index(entry)
     posture = text.index('posture = "upright"', start)

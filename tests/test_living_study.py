@@ -40,7 +40,7 @@ def living_run(tmp_path_factory):
 
 def test_run_writes_the_living_joint(living_run):
     manifest, out = living_run
-    truth = tomllib.loads((manifest.parent / "truth.toml").read_text())
+    truth = tomllib.loads((manifest.parent / "truth.toml").read_text(encoding="utf-8"))
     params = pd.read_csv(out / "passive_parameters.csv").set_index("parameter")
     row = params.loc["gravity_moment:attachment+forearm"]
     assert row["lower"] <= truth["conditions"]["B"]["gravity_moment"] <= row["upper"]

@@ -322,7 +322,7 @@ def test_marker_lists_every_file_written_with_its_size(tmp_path):
         (tmp / "sub").mkdir()
         (tmp / "sub" / "x.csv").write_text("12345")
         (tmp / "empty").mkdir()
-    doc = json.loads((out / MARKER).read_text())
+    doc = json.loads((out / MARKER).read_text(encoding="utf-8"))
     assert doc["files"] == {"empty/": None, "sub/x.csv": 5, "summary.csv": 3}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging, no lock
     assert oct(out.stat().st_mode & 0o777) != oct(0o700)  # as mkdir makes it, not private
@@ -341,7 +341,7 @@ def test_a_folder_holding_only_an_empty_marker_or_nothing_is_replaced(tmp_path):
     (tmp_path / "empty").mkdir()
     with output_folder(tmp_path / "empty") as tmp:
         (tmp / "a").write_text("a")
-    assert (tmp_path / "empty" / "a").read_text() == "a"
+    assert (tmp_path / "empty" / "a").read_text(encoding="utf-8") == "a"
 
 
 def test_a_symlinked_out_replaces_its_target_and_keeps_the_link(tmp_path):
@@ -363,12 +363,12 @@ def test_a_symlink_inside_an_earlier_output_is_not_followed(tmp_path):
     out = tmp_path / "out"
     with output_folder(out) as tmp:
         (tmp / "link").symlink_to(precious)
-    assert json.loads((out / MARKER).read_text())["files"] == {
+    assert json.loads((out / MARKER).read_text(encoding="utf-8"))["files"] == {
         "link": (out / "link").lstat().st_size
     }
     with output_folder(out) as tmp:
         (tmp / "a").write_text("a")
-    assert (precious / "data.csv").read_text() == "keep"
+    assert (precious / "data.csv").read_text(encoding="utf-8") == "keep"
 
 
 # -- the swap under injected failures --------------------------------------------------------
@@ -381,7 +381,7 @@ def _contents(folder: Path) -> dict[str, str] | None:
     if not folder.is_dir():
         return None
     return {
-        p.relative_to(folder).as_posix(): p.read_text()
+        p.relative_to(folder).as_posix(): p.read_text(encoding="utf-8")
         for p in folder.rglob("*")
         if p.is_file() and p.name != MARKER
     }
@@ -477,7 +477,7 @@ def write(out, files):
             (tmp / name).write_text(text)
 
 def contents(folder):
-    return {{p.relative_to(folder).as_posix(): p.read_text() for p in folder.rglob("*")
+    return {{p.relative_to(folder).as_posix(): p.read_text(encoding="utf-8") for p in folder.rglob("*")
             if p.is_file() and p.name != {MARKER!r}}}
 
 out = Path("out").resolve()
@@ -749,9 +749,11 @@ def test_report_replaces_the_set_whole_and_keeps_what_is_not_its_own(
     r = earlier(tmp_path / "R", {**FIT_OUTPUTS, "comparison.csv": "hdi_prob\n0.95\n"})
     (r / "note.txt").write_text("mine")
     assert main(["report", str(r), "--hdi-prob", "0.9"]) == 0
-    assert (r / "summary.csv").read_text() == (r / "comparison.csv").read_text()
-    assert (r / "note.txt").read_text() == "mine"
-    listed = json.loads((r / MARKER).read_text())["files"]
+    assert (r / "summary.csv").read_text(encoding="utf-8") == (r / "comparison.csv").read_text(
+        encoding="utf-8"
+    )
+    assert (r / "note.txt").read_text(encoding="utf-8") == "mine"
+    listed = json.loads((r / MARKER).read_text(encoding="utf-8"))["files"]
     assert listed["summary.csv"] == len("hdi_prob\n0.9\n")
     assert "note.txt" not in listed  # still the user's: a later run into R is refused
     assert sorted(p.name for p in tmp_path.iterdir()) == ["R"]

@@ -244,7 +244,7 @@ def two_postures(tmp_path_factory):
     manifest = simulate_living_study(
         root / "study", seed=3, postures="two", trials_per_speed=0, rigid_rotation_sweeps=True
     )
-    truth = tomllib.loads((manifest.parent / "truth.toml").read_text())
+    truth = tomllib.loads((manifest.parent / "truth.toml").read_text(encoding="utf-8"))
     return process_study(load_study(manifest)), truth
 
 

@@ -26,7 +26,7 @@ def study(base, tmp_path, setting=None, edit=None):
     manifest = folder / "study.toml"
     if setting is not None:  # a key of the first fast trial, replacing one already there
         key = setting.split("=")[0].strip()
-        text = manifest.read_text()
+        text = manifest.read_text(encoding="utf-8")
         start = text.index(f'file = "{FAST}"')
         end = text.find("[[trials]]", start)
         block = text[start:end]
@@ -107,7 +107,7 @@ def test_a_lag_longer_than_the_window_is_refused_and_skipped_under_skip(base, tm
         r"\(0\.1\d+ s\)",
     ):
         process_study(manifest)
-    manifest.write_text('on_trial_error = "skip"\n' + manifest.read_text())
+    manifest.write_text('on_trial_error = "skip"\n' + manifest.read_text(encoding="utf-8"))
     processed = process_study(manifest)
     assert list(processed.skipped.file) == [FAST]
     assert len(processed.trials.query("kind == 'fast'")) == 2
@@ -145,7 +145,7 @@ def test_swapped_columns_are_refused_naming_them_never_the_torque_sign(base, tmp
     # trial with its inertia 88 % low; set or not, the swap is named, with the mapping to give
     for setting in (None, 'torque_sign = "motion"'):
         manifest = study(base, tmp_path / str(bool(setting)), setting)
-        text = manifest.read_text().replace(
+        text = manifest.read_text(encoding="utf-8").replace(
             'file = "data/A_240_01.csv"\n', f'file = "data/A_240_01.csv"\n{columns}\n'
         )
         manifest.write_text(text)

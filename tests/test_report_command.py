@@ -47,7 +47,7 @@ def test_run_writes_tables_in_three_formats_and_the_paper_figures(study_out):
     for stem in ("summary", "comparison", "speed_effect", "identification"):
         for ext in ("csv", "md", "tex"):
             assert (study_out / f"{stem}.{ext}").is_file(), f"{stem}.{ext}"
-    assert r"\toprule" in (study_out / "comparison.tex").read_text()
+    assert r"\toprule" in (study_out / "comparison.tex").read_text(encoding="utf-8")
     for stem in (
         "corner-attachment",
         "corner-weight",
@@ -221,7 +221,9 @@ def test_report_redraws_without_sampling(study_out, tmp_path, capsys, monkeypatc
     (study_out / "corner-weight.png").unlink()
     assert main(["report", str(study_out), "--formats", "png,svg", "--hdi-prob", "0.8"]) == 0
     assert (study_out / "corner-weight.png").is_file()
-    assert (study_out / "corner-weight.svg").read_text().lstrip().startswith("<?xml")
+    assert (
+        (study_out / "corner-weight.svg").read_text(encoding="utf-8").lstrip().startswith("<?xml")
+    )
     assert (study_out / "posterior.nc").read_bytes() == nc
     summary = pd.read_csv(study_out / "summary.csv")
     assert (summary.hdi_prob == 0.8).all()
@@ -283,11 +285,13 @@ def test_report_on_a_fit_folder(tmp_path, disk_fit):
     out = tmp_path / "fit"
     shutil.copytree(disk_fit, out)  # `fit` on DISK_FIT's numbers (conftest)
     (out / "identification-disk-3kg.png").unlink()
-    before = (out / "comparison.csv").read_text()
+    before = (out / "comparison.csv").read_text(encoding="utf-8")
     assert main(["report", str(out)]) == 0
     assert (out / "report.html").is_file()
     assert (out / "identification-disk-3kg.png").is_file()
-    assert (out / "comparison.csv").read_text() == before  # fit's own comparison is kept
+    assert (out / "comparison.csv").read_text(
+        encoding="utf-8"
+    ) == before  # fit's own comparison is kept
 
 
 @pytest.mark.parametrize(
@@ -322,7 +326,7 @@ def test_report_refuses_a_truncated_traces_table(study_out, tmp_path, capsys):
     # the size inertiafit wrote, and report holds the data files to it.
     copy = tmp_path / "copy"
     shutil.copytree(study_out, copy)
-    lines = (copy / "traces.csv").read_text().splitlines(keepends=True)
+    lines = (copy / "traces.csv").read_text(encoding="utf-8").splitlines(keepends=True)
     (copy / "traces.csv").write_text("".join(lines[: len(lines) // 2]), encoding="utf-8")
     before = {p.name: p.read_bytes() for p in copy.iterdir() if p.is_file()}
     assert main(["report", str(copy)]) == 2
@@ -336,7 +340,7 @@ def test_report_refuses_a_truncated_traces_table(study_out, tmp_path, capsys):
 
 
 def test_run_writes_methods_with_the_protocol_as_run(study_out):
-    md = (study_out / "methods.md").read_text()
+    md = (study_out / "methods.md").read_text(encoding="utf-8")
     result = load_result(study_out)
     assert "2 bodies (attachment and weight) in 2 conditions" in md
     assert (
@@ -355,7 +359,7 @@ def test_run_writes_methods_with_the_protocol_as_run(study_out):
     assert f"median {1000 * fast.lag.median():.1f} ms" in md
     summary = result.posterior.summary(0.95)
     assert f"largest R-hat {summary.r_hat.max():.3f}" in md
-    bib = (study_out / "references.bib").read_text()
+    bib = (study_out / "references.bib").read_text(encoding="utf-8")
     keys = re.findall(r"^@\w+\{([^,]+),", bib, flags=re.MULTILINE)
     assert set(re.findall(r"\[@(\w+)\]", md)) == set(keys)
 

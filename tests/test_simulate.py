@@ -150,7 +150,7 @@ def test_bad_arguments():
 def read_csv(path, units):
     """Tiny reader for the simulator's CSV (the project's readers live in inertiafit.io)."""
     data = np.loadtxt(path, delimiter=",", skiprows=1)
-    header = path.read_text().splitlines()[0]
+    header = path.read_text(encoding="utf-8").splitlines()[0]
     assert header == "time,angle,velocity,torque"
     factors = {"s": 1, "ms": 1e-3, "deg": DEG, "rad": 1, "N*m": 1, "ft*lbf": FT_LBF}
     time_ = data[:, 0] * factors[units["time"]]
@@ -177,7 +177,7 @@ def test_study_files_and_manifest(tmp_path, angle_unit, torque_unit, time_unit):
         offset=0.5,
         priors={"disk": "disk-3kg"},
     )
-    doc = tomllib.loads(manifest.read_text())
+    doc = tomllib.loads(manifest.read_text(encoding="utf-8"))
     assert doc["bodies"]["arm"]["prior"] == {
         "mass": 1.5,
         "radius_of_gyration": 0.08,
@@ -206,7 +206,7 @@ def test_study_files_and_manifest(tmp_path, angle_unit, torque_unit, time_unit):
     assert time_[1] - time_[0] == pytest.approx(1e-3)
     assert angle.max() == pytest.approx(math.pi / 2, abs=0.2 * DEG)
     assert velocity.max() == pytest.approx(300 * DEG, rel=0.03)
-    truth = tomllib.loads((manifest.parent / "truth.toml").read_text())
+    truth = tomllib.loads((manifest.parent / "truth.toml").read_text(encoding="utf-8"))
     assert truth["conditions"]["B"]["inertia"] == pytest.approx(
         1.5 * (0.08**2 + 0.15**2) + 1.0 * (0.03**2 + 0.3**2)
     )
@@ -227,7 +227,7 @@ def test_study_rejects_unknown_units_and_bodies(tmp_path):
 def test_paper_study_is_62_trials_with_the_paper_priors(tmp_path):
     # How long writing it takes is for benchmarks/processing.py, not for a unit test.
     manifest = paper_study(tmp_path / "paper", seed=1)
-    doc = tomllib.loads(manifest.read_text())
+    doc = tomllib.loads(manifest.read_text(encoding="utf-8"))
     assert len(doc["trials"]) == 62
     assert len(list((tmp_path / "paper" / "data").glob("*.csv"))) == 62
     assert doc["bodies"]["attachment"]["prior"]["mass"] == 2.91
@@ -235,7 +235,7 @@ def test_paper_study_is_62_trials_with_the_paper_priors(tmp_path):
     assert doc["bodies"]["weight"]["prior"] == PAPER_PRIORS["weight"]
     speeds = [t.get("speed") for t in doc["trials"]]
     assert speeds.count(240.0) == speeds.count(270.0) == speeds.count(300.0) == 20
-    truth = tomllib.loads((tmp_path / "paper" / "truth.toml").read_text())
+    truth = tomllib.loads((tmp_path / "paper" / "truth.toml").read_text(encoding="utf-8"))
     assert truth["bodies"]["attachment"]["inertia"] == pytest.approx(
         PAPER_TRUTH["attachment"].inertia
     )

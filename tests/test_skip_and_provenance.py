@@ -47,12 +47,14 @@ def _copy(clean_study, tmp_path, policy=None):
     shutil.copytree(clean_study, folder)
     if policy is not None:
         manifest = folder / "study.toml"
-        manifest.write_text(f'on_trial_error = "{policy}"\n' + manifest.read_text())
+        manifest.write_text(
+            f'on_trial_error = "{policy}"\n' + manifest.read_text(encoding="utf-8")
+        )
     return folder
 
 
 def _truncate(path, rows=4):
-    path.write_text("\n".join(path.read_text().splitlines()[: rows + 1]) + "\n")
+    path.write_text("\n".join(path.read_text(encoding="utf-8").splitlines()[: rows + 1]) + "\n")
 
 
 def _edit_csv(path, func):
@@ -260,7 +262,7 @@ def test_one_recording_listed_twice_is_refused(clean_study, tmp_path, how):
         (data / "A_240_09.csv").hardlink_to(data / "A_240_02.csv")
     manifest = folder / "study.toml"
     manifest.write_text(
-        manifest.read_text()
+        manifest.read_text(encoding="utf-8")
         + '\n[[trials]]\nfile = "data/A_240_09.csv"\nbodies = ["attachment"]\nkind = "fast"\n'
         + "speed = 240.0\n"
     )
@@ -271,7 +273,7 @@ def test_one_recording_listed_twice_is_refused(clean_study, tmp_path, how):
     ):
         process_study(manifest)
     # under "skip" the second listing is left out with the reason, the first one counts once
-    manifest.write_text('on_trial_error = "skip"\n' + manifest.read_text())
+    manifest.write_text('on_trial_error = "skip"\n' + manifest.read_text(encoding="utf-8"))
     processed = process_study(manifest)
     inertia = {c.label: c.inertia.n for c in condition_evidence(processed)}
     assert inertia == {"attachment": 3, "attachment+weight": 3}

@@ -20,7 +20,7 @@ CONDITIONS = [("attachment",), ("attachment", "weight")]
 
 
 def truth_of(folder):
-    return tomllib.loads((folder / "truth.toml").read_text())
+    return tomllib.loads((folder / "truth.toml").read_text(encoding="utf-8"))
 
 
 def simulate(
@@ -99,7 +99,7 @@ def _copy(small_study, tmp_path):
 
 
 def _edit(path, func):
-    path.write_text(func(path.read_text()))
+    path.write_text(func(path.read_text(encoding="utf-8")))
 
 
 def _edit_csv(path, func):

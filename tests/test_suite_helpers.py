@@ -55,8 +55,8 @@ def test_two_workers_share_one_folder_made_once(tmp_path, monkeypatch):
     other.join(timeout=30)
     assert other.exitcode == 0
     assert str(here) == there == str(tmp_path / "shared")
-    assert log.read_text() == "made\n"  # once, whichever process came first
-    assert (here / "result.txt").read_text() == "42"
+    assert log.read_text(encoding="utf-8") == "made\n"  # once, whichever process came first
+    assert (here / "result.txt").read_text(encoding="utf-8") == "42"
     assert sorted(p.name for p in here.iterdir()) == ["result.txt"]  # no marker inside
 
 

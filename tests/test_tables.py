@@ -46,8 +46,8 @@ def test_latex_table_uses_booktabs_and_escapes():
 def test_write_table_writes_three_files_and_keeps_full_precision(tmp_path):
     paths = write_table(FRAME, tmp_path, "t")
     assert [p.name for p in paths] == ["t.csv", "t.md", "t.tex"]
-    assert "2.8867123" in paths[0].read_text()
-    assert "2.887" in paths[1].read_text()
+    assert "2.8867123" in paths[0].read_text(encoding="utf-8")
+    assert "2.887" in paths[1].read_text(encoding="utf-8")
 
 
 def test_display_frames_format_intervals():

@@ -64,7 +64,7 @@ def _run_tutorial(folder: Path) -> None:
                 said = io.StringIO()
                 with contextlib.redirect_stdout(said):
                     compiled = compile(code, f"population.md, block {k}", "exec")
-                    exec(compiled, namespace)  # noqa: S102 - our own docs
+                    exec(compiled, namespace)
                 log.append(said.getvalue())
             elif lang == "sh":
                 for line in code.splitlines():

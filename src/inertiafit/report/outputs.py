@@ -87,7 +87,7 @@ def idle_cores() -> int:
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     cores = cores or 1
     try:
-        running = int(LOADAVG.read_text().split()[3].split("/")[0])
+        running = int(LOADAVG.read_text(encoding="utf-8").split()[3].split("/")[0])
     except (OSError, ValueError, IndexError):
         return cores
     return max(1, min(cores, cores - (running - 1)))
