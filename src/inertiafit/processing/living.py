@@ -1596,7 +1596,8 @@ def statics_dataset(statics: LivingStatics) -> xr.Dataset:
     ``noise`` (N m), ``flagged``, ``kind``; each posture's fitted ``rotation`` (deg; dim
     ``posture``); and with a smooth part, the grid's ``amplitude`` (N m), ``length`` (deg)
     and posterior ``weight``. Attributes: the swept device angles (deg) and whether the fit
-    settled and measured the living ``M_g``.
+    settled and measured the living ``M_g``; the passive columns' geometry in rad (``joint``,
+    ``joint_angle_at_zero``, ``stop_range``, ``stop_width``, ``angle_range``).
     """
     names = list(statics.names)
     checks = list(statics.checks.values())
@@ -1630,6 +1631,12 @@ def statics_dataset(statics: LivingStatics) -> xr.Dataset:
         "converged": int(statics.converged),
         "gravity_identified": int(statics.gravity_identified),
         "curve": "smooth" if statics.smooth is not None else "fixed",
+        # the passive columns' geometry (rad), to evaluate the curve again (report.living_joint)
+        "joint": statics.basis.joint,
+        "joint_angle_at_zero": statics.basis.zero,
+        "stop_range": [statics.basis.range_low, statics.basis.range_high],
+        "stop_width": statics.basis.width,
+        "angle_range": [lo, hi],
     }
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
