@@ -22,7 +22,12 @@ from inertiafit.inference.anthropometric import principal_radius_ratios
 from inertiafit.inference.priors import anthropometric_prior
 from inertiafit.pipeline.export import run_export
 from inertiafit.posterior import open_posterior
-from inertiafit.report.export import Frame, declared_radii, load_declarations
+from inertiafit.report.export import (
+    Frame,
+    available_formats,
+    declared_radii,
+    load_declarations,
+)
 
 SAG, LONG = 0.276 / 0.265, 0.121 / 0.265  # de Leva (1996) male forearm, over the transverse
 
@@ -273,4 +278,5 @@ def test_command_line(results, tmp_path, capsys):
         assert err.count("\n") == 1
     code = main(["export", str(results), "--format", "fbx", "--out", str(tmp_path / "x")])
     assert code == 2
-    assert "--format: expected one of biomod, osim, json" in capsys.readouterr().err
+    known = ", ".join(available_formats())  # the registry's, whatever an extension adds
+    assert f"--format: expected one of {known}, got 'fbx'" in capsys.readouterr().err

@@ -498,7 +498,10 @@ class _Export(_Command):
         "medians as model.<ext>, with --draws N also N models sampled from the posterior "
         "(draws/), and export.csv. The dynamometer measures the radius of gyration about one "
         "axis; the other two come from the body's de Leva prior, or are declared (--radii, "
-        "--ratios, --segment or --declare). See the docs page 'Export to modelling tools'."
+        "--ratios, --segment or --declare). Each model feels gravity as the body did on the "
+        "dynamometer (its angle is the dynamometer's, at the study's phase), and a living "
+        "body's joint carries its passive moment and damping. See the docs page 'Export and "
+        "joint moments'."
     )
 
     @staticmethod
@@ -508,7 +511,8 @@ class _Export(_Command):
             "--format",
             required=True,
             metavar="FORMAT",
-            help="biomod (biorbd), osim (OpenSim 4) or json",
+            help="biomod (biorbd), osim (OpenSim 4), json, or a format registered with "
+            "inertiafit.report.export.register_format",
         )
         _add_out(p, None, "output folder, replaced whole")
         p.add_argument(
@@ -555,6 +559,13 @@ class _Export(_Command):
             metavar="AXIS",
             help="the body axis that is the dynamometer axis (default z)",
         )
+        p.add_argument(
+            "--phase",
+            type=float,
+            metavar="DEG",
+            help="the dynamometer's phase phi in degrees: the models feel M_g sin(q + phi) "
+            "(default: the phase the study measured; 0 for a folder of 'fit')",
+        )
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -594,8 +605,16 @@ class _Export(_Command):
             declared=declared,
             long_axis=args.long_axis,
             joint_axis=args.joint_axis,
+            phase=None if args.phase is None else math.radians(_phase_degrees(args.phase)),
         )
         return 0
+
+
+def _phase_degrees(value: float) -> float:
+    """``--phase``: a finite angle in degrees."""
+    if not math.isfinite(value):
+        raise InputError(f"--phase: expected a finite angle in degrees, got {value!r}")
+    return value
 
 
 def _pairs(items: list[str], option: str, what: str) -> dict[str, float]:
