@@ -19,10 +19,23 @@ the spread is due to (:meth:`Propagation.shares`):
 * **exactly, by the identified pair**: ``M`` is linear in ``I`` and ``M_g``, so
   ``Var M = alpha^2 Var I + s^2 Var M_g + 2 alpha s Cov(I, M_g)`` with ``s = sin(theta +
   phi)``; the three terms over ``Var M`` sum to 1.
+
+**A living body** (a posterior whose body is a study's ``living = true`` one) adds what its
+joint does on its own, the rest of the dynamometer's equation
+(:mod:`inertiafit.report.living_joint`)::
+
+    M(t) = I alpha + M_g sin(theta + phi) + P(theta) + b omega + h(theta) sgn(omega)
+
+``P`` the passive elastic moment (0 at the middle of the swept range, as ``passive.csv``),
+``b`` the viscous damping, ``h`` the hysteresis, each draw's joint drawn given that draw's
+gravity moment; ``theta`` is the dynamometer's angle. The parts are in
+:attr:`Propagation.parts`, and the exact split gains the joint's variance
+(``share_joint``) and its covariance with ``I`` and ``M_g`` (``share_joint_covariance``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,8 +53,10 @@ from inertiafit.io.readers import read_trial
 from inertiafit.physics import GRAVITY, PARAMETERS, gravity_moment, inertia, joint_moment
 from inertiafit.posterior import Posterior, open_posterior
 from inertiafit.processing.filtering import derivative
+from inertiafit.report.export.phase import data_phase
+from inertiafit.report.living_joint import condition_moments, living_joint
 
-__all__ = ["DEFAULT_DRAWS", "SHARE_COLUMNS", "Propagation", "propagate"]
+__all__ = ["DEFAULT_DRAWS", "JOINT_SHARE_COLUMNS", "SHARE_COLUMNS", "Propagation", "propagate"]
 
 #: Draws taken from a prior, and at most from a posterior.
 DEFAULT_DRAWS = 4000
@@ -54,6 +69,8 @@ SHARE_COLUMNS = [
     "share_gravity_moment",
     "share_covariance",
 ]
+#: More columns of :meth:`Propagation.shares` for a living body's joint.
+JOINT_SHARE_COLUMNS = ["share_joint", "share_joint_covariance"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +92,12 @@ class Propagation:
     hdi_prob : float
     label : str
         Where the draws come from (body and posterior, or the prior).
+    parts : dict of str to ndarray
+        A living body's joint, ``(draws, n)`` each (N m): ``passive`` (``P(theta)``),
+        ``damping`` (``b omega``), ``hysteresis`` (``h(theta) sgn(omega)``); empty for a
+        rigid body. ``moments`` includes them.
+    velocity : ndarray or None
+        ``omega`` (rad/s) where the joint needed it.
     """
 
     time: NDArray
@@ -87,6 +110,8 @@ class Propagation:
     phase: float
     hdi_prob: float
     label: str
+    parts: dict[str, NDArray] = field(default_factory=dict)
+    velocity: NDArray | None = None
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -108,8 +133,9 @@ class Propagation:
 
         ``share_<p>`` for ``m``, ``x``, ``rho`` by conditioning (see the module notes; with
         ``bins`` equal-count bins, default ``sqrt(draws) / 2`` between 5 and 50), and the
-        exact split by ``I``, ``M_g`` and their covariance. Where the moment does not vary
-        (a single draw) every share is NaN.
+        exact split by ``I``, ``M_g`` and their covariance (and, for a living body, the
+        joint's variance and its covariance with them, :data:`JOINT_SHARE_COLUMNS`). Where
+        the moment does not vary (a single draw) every share is NaN.
         """
         m = self.moments
         n = m.shape[0]
@@ -133,8 +159,19 @@ class Propagation:
             out["share_inertia"] = a * a * cov[0, 0] / var
             out["share_gravity_moment"] = s * s * cov[1, 1] / var
             out["share_covariance"] = 2 * a * s * cov[0, 1] / var
+            columns = SHARE_COLUMNS
+            if self.parts:
+                joint: NDArray = np.sum(list(self.parts.values()), axis=0)
+                centred = joint - joint.mean(axis=0)
+                with_i = ((self.inertia - self.inertia.mean())[:, None] * centred).mean(axis=0)
+                with_g = (
+                    (self.gravity_moment - self.gravity_moment.mean())[:, None] * centred
+                ).mean(axis=0)
+                out["share_joint"] = joint.var(axis=0) / var
+                out["share_joint_covariance"] = 2 * (a * with_i + s * with_g) / var
+                columns = [*SHARE_COLUMNS, *JOINT_SHARE_COLUMNS]
         bad = ~(var > 0)
-        frame = pd.DataFrame(out, columns=SHARE_COLUMNS)
+        frame = pd.DataFrame(out, columns=columns)
         frame.loc[bad, :] = np.nan
         return frame
 
@@ -231,8 +268,25 @@ def _check_motion(time: NDArray, angle: NDArray, acc: NDArray, *, derived: bool)
         )
 
 
-def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDArray, NDArray]:
-    """``(time, angle, acceleration)`` of a motion given as arrays, a Trial or a trial file."""
+def _velocity(time: NDArray, angle: NDArray) -> NDArray:
+    """The angle's derivative, for a motion on one even step (the spectral derivative's)."""
+    steps = np.diff(time)
+    median = float(np.median(steps))
+    if float(np.max(np.abs(steps - median))) / median > STEP_TOLERANCE:
+        raise InputError(
+            "motion: time: uneven steps; a living joint's damping needs the velocity: give "
+            "'velocity' (rad/s) or resample the motion to an even step"
+        )
+    return derivative(angle, time)
+
+
+def _motion(
+    motion: Any, reader: Mapping[str, Any] | None
+) -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
+    """``(time, angle, acceleration, velocity)`` of a motion: arrays, a Trial or a trial file.
+
+    ``velocity`` is the Trial's or the mapping's ``velocity``, else ``None``.
+    """
     if isinstance(motion, str | Path):
         motion = read_trial(motion, **dict(reader or {}))
     if isinstance(motion, xr.Dataset):
@@ -240,8 +294,8 @@ def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDA
             raise InputError("motion: a Trial needs 'angle' and 'velocity' (rad, rad/s)")
         time = np.asarray(motion["time"].values, dtype=float)
         angle = np.asarray(motion["angle"].values, dtype=float)
-        velocity = np.asarray(motion["velocity"].values, dtype=float)
-        return time, angle, derivative(velocity, time)
+        omega = np.asarray(motion["velocity"].values, dtype=float)
+        return time, angle, derivative(omega, time), omega
     if isinstance(motion, Mapping):
         missing = [k for k in ("time", "angle") if k not in motion]
         if missing:
@@ -249,9 +303,11 @@ def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDA
         time = _floats(motion["time"], "time")
         angle = _floats(motion["angle"], "angle")
         acceleration = motion.get("acceleration")
+        given = motion.get("velocity")
     elif isinstance(motion, tuple) and len(motion) in (2, 3):
         time, angle = _floats(motion[0], "time"), _floats(motion[1], "angle")
         acceleration = motion[2] if len(motion) == 3 else None
+        given = None
     else:
         raise InputError(
             "motion: expected (time, angle) arrays (s, rad), a mapping with 'time' and "
@@ -269,20 +325,35 @@ def _motion(motion: Any, reader: Mapping[str, Any] | None) -> tuple[NDArray, NDA
         acc = _floats(acceleration, "acceleration")
         if acc.shape != time.shape or not np.all(np.isfinite(acc)):
             raise InputError("motion: 'acceleration' must be finite, one value per time")
+    velocity = None
+    if given is not None:
+        velocity = _floats(given, "velocity")
+        if velocity.shape != time.shape or not np.all(np.isfinite(velocity)):
+            raise InputError("motion: 'velocity' must be finite, one value per time")
     _check_motion(time, angle, acc, derived=acceleration is None)
-    return time, angle, acc
+    return time, angle, acc, velocity
 
 
-def _draws(
-    source: Any, body: str | None, draws: int | None, rng: np.random.Generator
-) -> tuple[dict[str, NDArray], float | None, str]:
+@dataclass(frozen=True)
+class _Source:
+    """Where the draws come from: the draws, ``g`` (or None), a label, a posterior's joint."""
+
+    values: dict[str, NDArray]
+    gravity: float | None
+    label: str
+    posterior: Posterior | None = None
+    body: str = ""
+    index: NDArray | None = None  # the posterior's flat draws taken
+
+
+def _draws(source: Any, body: str | None, draws: int | None, rng: np.random.Generator) -> _Source:
     """The parameter draws of ``source``, its gravity (or None) and a label."""
     if isinstance(source, str | Path):
         path = Path(source)
         source = open_posterior(path / "posterior.nc" if path.is_dir() else path)
     if isinstance(source, Prior):
         size = draws or DEFAULT_DRAWS
-        return source.sample(size, rng), None, f"prior {source.name}"
+        return _Source(source.sample(size, rng), None, f"prior {source.name}")
     if isinstance(source, Posterior):
         bodies = source.bodies
         if body is None:
@@ -329,10 +400,13 @@ def _draws(
             f"mapping of draws, got {type(source).__name__}"
         )
     n = values["mass"].size
+    index = np.arange(n)
     if draws is not None and draws < n:
         index = np.sort(rng.choice(n, size=draws, replace=False))
         values = {p: v[index] for p, v in values.items()}
-    return values, gravity, label
+    if isinstance(source, Posterior):
+        return _Source(values, gravity, label, source, str(body), index)
+    return _Source(values, gravity, label)
 
 
 def propagate(
@@ -340,12 +414,13 @@ def propagate(
     motion: Any,
     *,
     body: str | None = None,
-    phase: float = 0.0,
+    phase: float | str = 0.0,
     gravity: float | None = None,
     hdi_prob: float = 0.95,
     draws: int | None = None,
     seed: int = 0,
     reader: Mapping[str, Any] | None = None,
+    joint: bool = True,
 ) -> Propagation:
     """The joint moment of a motion for every draw of a body's ``(m, x, rho)``.
 
@@ -357,14 +432,17 @@ def propagate(
         prior), or arrays ``mass``, ``com_distance``, ``radius_of_gyration`` (SI units).
     motion : tuple, mapping, Trial or path
         ``(time, angle)`` or ``(time, angle, acceleration)`` arrays (s, rad, rad/s^2), a
-        mapping with those keys, a Trial (:func:`~inertiafit.read_trial`) or a trial file
-        (read with ``reader``'s options). Without an acceleration it is the angle's second
-        derivative (spectral, :func:`inertiafit.processing.filtering.derivative`): give
-        smooth angles, or a Trial, whose velocity is differentiated once.
+        mapping with those keys (and optionally ``velocity``, rad/s), a Trial
+        (:func:`~inertiafit.read_trial`) or a trial file (read with ``reader``'s options).
+        Without an acceleration it is the angle's second derivative (spectral,
+        :func:`inertiafit.processing.filtering.derivative`): give smooth angles, or a Trial,
+        whose velocity is differentiated once.
     body : str, optional
         The body of a posterior with several.
-    phase : float
-        ``phi`` (rad): ``theta + phi`` is the angle from hanging (the gravity vertical).
+    phase : float or "data"
+        ``phi`` (rad): ``theta + phi`` is the angle from hanging (the gravity vertical);
+        ``"data"``: the phase the study behind a posterior measured
+        (:func:`~inertiafit.report.export.data_phase`).
     gravity : float, optional
         m/s^2; default the posterior's, or 9.81.
     hdi_prob : float
@@ -372,10 +450,13 @@ def propagate(
     draws : int, optional
         Draws used: from a prior (default 4000), or at most this many of a posterior's.
     seed : int
-        Seeds the prior's draws and the choice among a posterior's.
+        Seeds the prior's draws, the choice among a posterior's and a living joint's draws.
     reader : mapping, optional
         Options of :func:`~inertiafit.read_trial` for a trial file (``format``, ``columns``,
         ``units``).
+    joint : bool
+        Add a living body's joint (passive moment, damping, hysteresis; the module notes)
+        when the posterior carries one (default); ``False``: the rigid-body moment only.
 
     Returns
     -------
@@ -383,13 +464,18 @@ def propagate(
     """
     check_probability(hdi_prob, "hdi_prob")
     check_seed(seed)
-    phase = check_finite(phase, "phase", "rad")
     if draws is not None:
         draws = check_whole(draws, "draws")
-    time, angle, acceleration = _motion(motion, reader)
+    time, angle, acceleration, velocity = _motion(motion, reader)
     rng = np.random.default_rng(seed)
-    values, own_gravity, label = _draws(posterior, body, draws, rng)
-    g = gravity if gravity is not None else (own_gravity or GRAVITY)
+    source = _draws(posterior, body, draws, rng)
+    if isinstance(phase, str) and phase == "data":
+        if source.posterior is None:
+            raise InputError("phase: 'data' needs a posterior (a results folder or posterior.nc)")
+        phase = data_phase(source.posterior)[0]
+    phase = check_finite(phase, "phase", "rad")
+    values = source.values
+    g = gravity if gravity is not None else (source.gravity or GRAVITY)
     g = check_finite(g, "gravity", "m/s^2")
     m, x, rho = (values[p] for p in PARAMETERS)
     if m.size * time.size > MAX_VALUES:
@@ -402,6 +488,26 @@ def propagate(
     m_g = gravity_moment(m, x, g)
     moments = joint_moment(i_joint[:, None], m_g[:, None], angle[None, :], acceleration[None, :],
                            phase)  # fmt: skip
+    parts: dict[str, NDArray] = {}
+    living = (
+        living_joint(source.posterior, source.body)
+        if joint and source.posterior is not None
+        else None
+    )
+    if living is not None:
+        if velocity is None:
+            velocity = _velocity(time, angle)
+        size = m.size
+        given = condition_moments(source.posterior, living, source.index)  # type: ignore[arg-type]
+        coefficients = living.draws(rng, size, given)
+        damping = living.damping_draws(rng, size)
+        parts = {
+            "passive": living.passive(angle, coefficients),
+            "damping": damping[:, None] * velocity[None, :],
+            "hysteresis": living.hysteresis(angle, coefficients) * np.sign(velocity)[None, :],
+        }
+        moments = moments + np.sum(list(parts.values()), axis=0)
+        source = dataclasses.replace(source, label=f"{source.label} with its joint")
     return Propagation(
         time=time,
         angle=angle,
@@ -412,5 +518,7 @@ def propagate(
         gravity_moment=m_g,
         phase=phase,
         hdi_prob=hdi_prob,
-        label=label,
+        label=source.label,
+        parts=parts,
+        velocity=velocity if parts else None,
     )
