@@ -14,6 +14,7 @@ run's table.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from collections.abc import Callable, Mapping
@@ -85,7 +86,10 @@ def study_provenance(
     path, sha256, condition, kind, status and the reader settings, see
     :attr:`~inertiafit.processing.study.ProcessedStudy.provenance`) and ``priors`` (per body:
     the prior file's ``path`` and ``sha256``, or ``"inline"`` for a table in the manifest);
-    for a living body, ``passive``: its joint's shipped prior file (``path``, ``sha256``).
+    for a living body, ``passive``: its joint's shipped prior file (``path``, ``sha256``), the
+    prior used (``prior``: the ``[passive]`` table merged into that file, each entry's source
+    beside it) and the ``postures`` (rotation, its prior SD, ``"free"`` for none, and tilt, in
+    deg), which the Methods text states.
     """
     out = {
         "manifest": {"path": str(study.path), "sha256": file_sha256(study.path)},
@@ -102,7 +106,21 @@ def study_provenance(
     }
     if study.passive is not None:  # the living joint's shipped prior file
         path = passive_prior_path(study.passive.joint)
-        out["passive"] = {"path": str(path), "sha256": file_sha256(path)}
+        out["passive"] = {
+            "path": str(path),
+            "sha256": file_sha256(path),
+            "prior": dataclasses.asdict(study.passive),
+            "postures": {
+                name: {
+                    "gravity_rotation": p.gravity_rotation,
+                    "gravity_rotation_sd": (
+                        p.gravity_rotation_sd if math.isfinite(p.gravity_rotation_sd) else "free"
+                    ),
+                    "axis_tilt": p.axis_tilt,
+                }
+                for name, p in study.postures.items()
+            },
+        }
     return out
 
 
@@ -228,8 +246,11 @@ def _sample_study(
             refused=refused,
             table=processed.diagnostics(refused),
         )
-    if conflicts:  # said in the study's warnings, and kept in posterior.nc with them
+    # a body's data where its prior allows almost nothing (posterior.conflict)
+    prior_conflicts = post.conflict_warnings()
+    if conflicts or prior_conflicts:  # said in the study's warnings, kept in posterior.nc
         processed.warnings.extend(c.line for c in conflicts)
+        processed.warnings.extend(prior_conflicts)
         post.tree.attrs["inputs"] = inputs_json(inputs)
     return study, priors, ideals, processed, living, post
 

@@ -3,10 +3,12 @@
 :func:`methods_sections` writes the text from what a :class:`~inertiafit.report.result.Result`
 holds (nothing is recomputed): the protocol as read from the manifest and the trial table
 (conditions, bodies, trials per speed, sampling rate), the processing settings (filter, window
-rule, lag), each body's prior (:func:`prior_table`), the statistical model, the sampler with the
-convergence reached (R-hat and ESS of the posterior), and the software versions.
+rule, lag), each body's prior (:func:`prior_table`), the statistical model, a living joint's
+terms with their priors and sources (:func:`living_text`), the sampler with the convergence
+reached (R-hat and ESS of the posterior), and the software versions.
 :func:`methods_markdown` and :func:`methods_html` render it; citations are Pandoc-style
-``[@key]`` with their keys in ``references.bib`` (:func:`references_of`).
+``[@key]`` or ``[@a; @b]``, each where the work is used (a quoted source with the works it
+names), and ``references.bib`` holds exactly the works the text cites (:func:`references_of`).
 """
 
 from __future__ import annotations
@@ -26,14 +28,22 @@ import pandas as pd
 from inertiafit.formatting import plural
 from inertiafit.inference.priors import Prior
 from inertiafit.physics import PARAMETERS, UNITS
-from inertiafit.processing import filtering, window
+from inertiafit.processing import filtering, living, window
 from inertiafit.processing.study import usable_trials
-from inertiafit.report.references import Reference, bibtex, cited, reference_text
+from inertiafit.report.references import (
+    REFERENCES,
+    Reference,
+    bibtex,
+    citations,
+    cite,
+    reference_text,
+)
 from inertiafit.report.result import Result
 from inertiafit.report.tables import to_markdown
 
 __all__ = [
     "METHODS_FILES",
+    "living_text",
     "methods_html",
     "methods_markdown",
     "methods_sections",
@@ -94,40 +104,10 @@ def prior_table(prior: Prior) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _prior_sources(result: Result) -> list[str]:
-    """Every source text the result's priors cite (prior files, tables, a passive prior)."""
-    texts = [p.source for p in result.priors.values()]
-    for prior in result.priors.values():
-        table = prior.anthropometric.get("table")
-        if table:
-            texts.append(_table_citation(table, prior.anthropometric.get("sex")))
-    passive = _attrs_json(result, "provenance").get("passive")
-    if isinstance(passive, dict) and passive.get("path"):
-        texts.append(_passive_text(str(passive["path"])))
-    return texts
-
-
-def _table_citation(name: str, sex: str | None) -> str:
-    from inertiafit.errors import InputError
-    from inertiafit.inference.anthropometric import resolve_table
-
-    try:
-        found = resolve_table(name, sex)
-    except InputError:
-        return name
-    table = found[0]
-    return f"{table.citation} {table.spread_source}"
-
-
-def _passive_text(path: str) -> str:
-    """The shipped passive prior of that joint (the file as installed now, by its name)."""
-    from inertiafit.errors import InputError
-    from inertiafit.io.shipped import passive_prior_path
-
-    try:
-        return passive_prior_path(Path(path).stem).read_text(encoding="utf-8")
-    except (InputError, OSError):
-        return ""
+def _sourced(text: str) -> str:
+    """A source text with a citation of every work it names: ``text [@key; ...]``."""
+    keys = citations(text)
+    return f"{text} {cite(keys)}" if keys else text
 
 
 # -- the text --------------------------------------------------------------------------------
@@ -213,10 +193,16 @@ def _protocol(result: Result) -> list[str]:
     if recorded:
         paras.append(f"The trials were {_and(recorded)}.")
     if _uses_emg(result):
+        muscles = sorted(
+            {str(m) for t in prov for m in ((t.get("reader") or {}).get("emg") or [])}
+        )
         paras.append(
-            "Surface EMG was recorded with the trials to check that the muscles stayed "
-            "relaxed (band-pass per SENIAM [@hermens_2000], RMS envelope, onset threshold of "
-            "rest mean + k SD [@hodges_bui_1996])."
+            f"Surface EMG of {_and(muscles) or 'the muscles'} was recorded with the trials to "
+            "check that the muscles stayed relaxed: band-pass filtered per SENIAM "
+            "[@hermens_2000], an RMS envelope, and an onset threshold of the envelope's rest "
+            "mean + k SD held for a minimum time [@hodges_bui_1996]; a trial active in the "
+            "windows checked was excluded, flagged or stopped the study, as the manifest's "
+            "[emg] on_activity says."
         )
     return paras
 
@@ -242,7 +228,9 @@ def _numbers_protocol(result: Result) -> list[str]:
             + ")"
         )
     text = (
-        f"The body '{body}' was fitted from reported values rather than trial files: "
+        f"The body '{body}' was fitted from reported values rather than trial files (its "
+        "inertia and gravity moment about the axis, as a dynamometer measures them by the "
+        "method of Son et al. [@son_dynamometer]): "
         + (_and(parts) if parts else "its inertia and gravity moment")
         + f", with gravity g = {result.gravity:g} m/s^2."
     )
@@ -359,12 +347,312 @@ def _model(result: Result) -> list[str]:
         "parameter free along the curve of constant m·x and I, its prior decides it; the "
         "report's identification table gives each quantity's posterior-to-prior SD ratio."
     )
-    if result.living:
-        paras.append(
-            "The living joint adds a passive elastic moment, a hysteresis and a viscous "
-            "damping to every trial; their priors come from the shipped passive prior of the "
-            "joint, and they are fitted with the gravity model and the inertia."
+    return paras
+
+
+# -- a living joint ----------------------------------------------------------------------------
+
+#: Each joint's angle convention, as the passive prior files state it.
+_FLEXION = {"ankle": "plantarflexion positive, 0 = neutral"}
+#: The other joints' angles at which a literature curve is taken (:mod:`inertiafit.passive`).
+_CURVE_POSE = {"knee": "the hip flexed 90° and the ankle neutral", "ankle": "the knee flexed 90°"}
+
+
+class _PassivePrior:
+    """The living joint's prior as run: each entry's value and its source.
+
+    From the posterior's provenance (``passive.prior``, the ``[passive]`` table merged into the
+    shipped file); for a posterior written before it was recorded there, the shipped file as
+    installed now, with the joint fit's own prior means and SDs (which hold the manifest's
+    overrides) and ``"manifest"`` as the source of any that differ from the file's.
+    """
+
+    def __init__(self, result: Result) -> None:
+        record = _attrs_json(result, "provenance").get("passive") or {}
+        self.record: dict[str, Any] = record.get("prior") or {}
+        self.postures: dict[str, Any] = record.get("postures") or {}
+        joint = self.record.get("joint") or (Path(str(record.get("path", ""))).stem or "generic")
+        self.joint = str(joint)
+        self.shipped: dict[str, Any] = {}
+        try:
+            from inertiafit.io.shipped import load_passive_prior
+
+            self.shipped = load_passive_prior(self.joint)
+        except Exception:  # noqa: BLE001  # a file changed since: the table's numbers stand
+            self.shipped = {}
+        table = result.living.get("passive_parameters")
+        self.table = (
+            table.set_index("parameter") if table is not None and len(table) else pd.DataFrame()
         )
+
+    def value(self, key: str) -> Any:
+        """The entry as run: ``(mean, sd)``, a number or ``(lo, hi)``; ``None`` if unknown."""
+        if key in self.record and self.record[key] is not None:
+            return self.record[key]
+        if key in self.table.index and np.isfinite(self.table.loc[key, "prior_sd"]):
+            return (
+                float(self.table.loc[key, "prior_mean"]),
+                float(self.table.loc[key, "prior_sd"]),
+            )
+        entry = self.shipped.get(key)
+        return entry["value"] if isinstance(entry, dict) else None
+
+    def source(self, key: str) -> str:
+        """Where the entry's number comes from, with a citation of each work it names."""
+        sources = self.record.get("sources") or {}
+        text = sources.get(key)
+        if text is None:
+            entry = self.shipped.get(key)
+            shipped = entry if isinstance(entry, dict) else {}
+            same = shipped.get("value") is not None and np.allclose(
+                np.asarray(shipped["value"], float), np.asarray(self.value(key), float)
+            )
+            text = shipped.get("source", "manifest") if same else "manifest"
+        if text == "manifest":
+            return "set in the study's manifest ([passive])"
+        if not self.record and key not in self.table.index:
+            text = (
+                f"{text}; as the prior file gives it, which this posterior.nc does not "
+                "record whether the manifest overrode"
+            )
+        return _sourced(str(text))
+
+    def normal(self, key: str, unit: str) -> str:
+        """``N(mean, SD) unit (source)`` of a normal entry."""
+        value = self.value(key)
+        if value is None:
+            return "(prior not recorded)"
+        mean, sd = (float(v) for v in value)
+        shown = f" {unit}" if unit else ""
+        return f"N({mean:.3g}, {sd:.3g}){shown} ({self.source(key)})"
+
+    def estimate(self, key: str, unit: str) -> str:
+        """The joint fit's ``mean ± SD unit`` of a parameter, or ``""``."""
+        if key not in self.table.index:
+            return ""
+        row = self.table.loc[key]
+        space = "" if unit in ("", "°") else " "
+        return f"{float(row['mean']):.3g} ± {float(row['sd']):.2g}{space}{unit}"
+
+
+def _living_fit(result: Result) -> Any:
+    """The joint fit's dataset in ``posterior.nc`` (``living/fit``), or ``None``."""
+    try:
+        return result.posterior.tree[f"{living.LIVING_GROUP}/fit"].to_dataset()
+    except KeyError:
+        return None
+
+
+def living_text(result: Result) -> list[str]:
+    """The Methods paragraphs of a living body: each term of the joint, its prior and source.
+
+    The passive elastic moment ``P`` (its nonparametric prior and the literature curve it is
+    centred on), the hysteresis ``h``, the viscous damping ``b``, each posture's rotation of
+    gravity ``r_p`` and what told ``M_g`` from ``P``, the rest holds and the fit's check of its
+    trials, as the result holds them; empty for a rigid study.
+    """
+    if not result.living or "passive_parameters" not in result.living:
+        return []
+    prior = _PassivePrior(result)
+    table = prior.table
+    joint = prior.joint
+    body = str(table["body"].iloc[0]) if "body" in table and len(table) else "the living body"
+    zero = prior.record.get("joint_angle_at_zero")
+    fit = _living_fit(result)
+    curve = str(
+        prior.record.get("curve") or (fit.attrs.get("curve") if fit is not None else "smooth")
+    )
+    angle = (
+        f"theta_j = theta + {float(zero):g}°" if zero is not None else "theta_j the joint angle"
+    )
+    convention = _FLEXION.get(joint, "flexion positive, 0 = full extension")
+    paras = [
+        (
+            f"'{body}' is a living segment on its {joint} joint, which resists being moved: in "
+            "every condition that mounts it, the moment the dynamometer applies is "
+            "tau = I alpha + M_g sin(theta + phi + r_p) + c + P(theta_j) + b omega + "
+            f"h(theta_j) sgn(omega), with {angle} ({convention}). Beyond the rigid body's terms "
+            "these are the passive elastic moment P, the viscous damping b, the hysteresis h and "
+            "the rotation r_p of gravity in posture p; muscle activity is kept out by the "
+            "protocol (and the EMG check, where EMG was recorded). Their priors are the joint's "
+            f"shipped passive prior (priors/passive/{joint}.toml) with the manifest's [passive] "
+            "entries in its place; each is given below with its source."
+        )
+    ]
+
+    # P: the literature curve it is centred on, and the smooth part around it
+    stops = prior.value("range")
+    width = prior.value("stop_width")
+    spring = f"a linear spring k (theta_j - theta_rel), k ~ {prior.normal('stiffness', 'N m/rad')}"
+    if stops is not None and width is not None:
+        lo, hi = (float(v) for v in stops)
+        ends = (
+            f"exponential end stops at the range ends {lo:g}° and {hi:g}° "
+            f"({prior.source('range')}), each stop's moment there "
+            f"~ {prior.normal('stop_moment', 'N m')}, fitted as two exponentials "
+            f"{float(width) / math.sqrt(2):.3g}° and {float(width) * math.sqrt(2):.3g}° wide "
+            f"about an e-folding width of {float(width):g}° ({prior.source('stop_width')})"
+        )
+    else:
+        ends = "exponential end stops at the ends of the joint's range"
+    if joint in _CURVE_POSE:
+        mean_curve = (
+            f"the literature curve s P0(theta_j), P0 Riener & Edrich's passive {joint} moment "
+            f"{cite(['riener_edrich_1999'])} with {_CURVE_POSE[joint]} (the device's moment: "
+            f"their tissue moment negated), its scale s ~ {prior.normal('curve_scale', '')}; "
+            f"plus {spring}; plus {ends}"
+        )
+    else:
+        mean_curve = f"{spring}; plus {ends} (the {joint} has no published passive curve to scale)"
+    if curve == "smooth":
+        n = (
+            sum(str(c).startswith("smooth:") for c in fit["coefficient"].values)
+            if fit is not None
+            else 0
+        )
+        basis = f"{n} sine eigenfunctions" if n else "sine eigenfunctions"
+        amplitude = prior.estimate("smooth_amplitude", "N m")
+        length = prior.estimate("smooth_length", "°")
+        found = (
+            f" (posterior: amplitude {amplitude}, length-scale {length})"
+            if amplitude and length
+            else ""
+        )
+        p_text = (
+            "Passive elastic moment P(theta_j): a nonparametric prior, a Gaussian process in the "
+            "joint angle (squared-exponential kernel) around the mean curve of the joint's "
+            f"prior: {mean_curve}. The process is approximated by {basis} of the Laplacian on "
+            f"{living.SMOOTH_BOUNDARY:g} times the swept half range [@solin_sarkka_2020], "
+            "their number set by the rule of Riutort-Mayol et al. [@riutort_mayol_2023] "
+            f"(at least {living.SMOOTH_FUNCTIONS[0]}, at most {living.SMOOTH_FUNCTIONS[1]}); "
+            "its amplitude "
+            f"({min(living.SMOOTH_AMPLITUDES):g}-{max(living.SMOOTH_AMPLITUDES):g} N m) and "
+            f"length-scale ({min(living.SMOOTH_LENGTHS_DEG):g}-"
+            f"{max(living.SMOOTH_LENGTHS_DEG):g}°) have log-uniform hyperpriors on a grid, "
+            f"integrated over by each point's evidence{found}."
+        )
+    else:
+        p_text = (
+            "Passive elastic moment P(theta_j): the mean curve of the joint's prior alone (the "
+            f'manifest\'s [passive] curve = "fixed"): {mean_curve}.'
+        )
+    paras.append(
+        p_text + " The spring's relaxed angle theta_rel is not identified: the offset c "
+        "absorbs it, and P is shown relative to its value at mid-range."
+    )
+
+    # h
+    h = prior.estimate("hysteresis", "N m")
+    shape = (
+        " Its change over the range is a Gaussian process on the same basis, of amplitude the "
+        f"prior's SD and length-scale {living.HYSTERESIS_LENGTH_DEG:g}°."
+        if curve == "smooth"
+        else ""
+    )
+    paras.append(
+        "Hysteresis h sgn(omega): a moment against the direction of motion, which sweeps in "
+        f"both directions separate from P; h ~ {prior.normal('hysteresis', 'N m')}.{shape}"
+        + (f" Fitted: h = {h}." if h else "")
+    )
+
+    # b
+    b_row = table.loc["damping"] if "damping" in table.index else None
+    trials = usable_trials(result.trials)
+    living_conds = {c for c, bodies in result.conditions.items() if body in bodies}
+    fast = trials[(trials["kind"] == "fast") & trials["condition"].isin(living_conds)]
+    b_text = f"Viscous damping b omega: b ~ {prior.normal('damping', 'N m s/rad')}. "
+    if b_row is not None and str(b_row["pinned_by"]).startswith("prior"):
+        b_text += (
+            "No fast trial moved the living body, so b is its prior (a slow sweep's b omega "
+            "is within its hysteresis)."
+        )
+    else:
+        b_text += (
+            f"Each of the {plural(len(fast), 'fast trial')} of the living conditions gives b "
+            "with its inertia: least squares of I alpha + b omega + c_t over its "
+            "uniform-acceleration window and its uniform-deceleration window together (in "
+            "the deceleration the acceleration changes sign while the speed does not, which "
+            "tells b omega from I alpha; c_t is the trial's own constant)"
+            + (f"; b = {prior.estimate('damping', 'N m s/rad')}" if b_row is not None else "")
+            + "."
+        )
+    paras.append(b_text)
+
+    # r_p, and what told M_g from P
+    rotations = [p for p in table.index if str(p).startswith("rotation:")]
+    if rotations:
+        parts = []
+        for k, key in enumerate(rotations):
+            name = str(key).removeprefix("rotation:")
+            declared = prior.postures.get(name) or {}
+            said = []
+            if "gravity_rotation" in declared:
+                said.append(f"nominal {float(declared['gravity_rotation']):g}°")
+            sd = declared.get("gravity_rotation_sd")
+            if k == 0:
+                said.append("the reference")
+            elif sd == "free":
+                said.append("free (a flat prior)")
+            elif sd is not None:
+                said.append(f"prior SD {float(sd):g}° per posture")
+            if float(declared.get("axis_tilt", 0.0) or 0.0):
+                said.append(f"axis tilted {float(declared['axis_tilt']):g}°")
+            fitted = prior.estimate(str(key), "°") if k else ""
+            if fitted:
+                said.append(f"fitted {fitted}")
+            parts.append(f"'{name}'" + (f" ({', '.join(said)})" if said else ""))
+        paras.append(
+            "Postures: "
+            + "; ".join(parts)
+            + ". A second posture rotates gravity by r_p and not the passive curve (the joint "
+            "moves through the same angles), which tells M_g from P; a posture whose axis is "
+            "tilted 90° (motion in the horizontal plane) has no gravity moment. Each rotation "
+            "beside the reference's has a Gaussian prior of the declared SDs."
+        )
+    else:
+        paras.append(
+            "One posture: gravity and P are told apart on its sweeps by the passive prior only."
+        )
+    for key in (p for p in table.index if str(p).startswith("gravity_moment:")):
+        row = table.loc[key]
+        cond = str(key).removeprefix("gravity_moment:")
+        leverage = float(row["prior_leverage"])
+        grows = (
+            f" (its SE grows {leverage:.2f}x when the passive prior's SDs double)"
+            if math.isfinite(leverage)
+            else ""
+        )
+        paras.append(
+            f"M_g of '{cond}' = {float(row['mean']):.4g} ± {float(row['sd']):.2g} N m from the "
+            f"joint fit, told from the passive curve by {row['pinned_by'] or 'the prior'}"
+            f"{grows}."
+        )
+
+    # rest holds, the joint fit and its check
+    rest = int(((trials["kind"] == "rest") & trials["condition"].isin(living_conds)).sum())
+    sweeps = int(
+        ((trials["kind"] == "quasi-static") & trials["condition"].isin(living_conds)).sum()
+    )
+    flagged = int(np.asarray(fit["flagged"]).sum()) if fit is not None and "flagged" in fit else 0
+    paras.append(
+        f"The {plural(sweeps, 'quasi-static sweep')}"
+        + (
+            f" and {plural(rest, 'rest hold')} (quiet holds, each a point of the static moment "
+            "within the band ±h a joint at rest may hold, with its own offset inside it)"
+            if rest
+            else ""
+        )
+        + " of the living conditions were fitted together as one Bayesian linear regression: "
+        "the gravity moment of each condition, an offset per condition and posture, and the "
+        "coefficients above with their Gaussian priors, which are integrated out analytically "
+        "(the rotations by Gauss-Newton, a Laplace approximation). Each fast trial of a living "
+        "condition subtracts the fitted static moment of its posture and direction, the fit's "
+        "error carried into its inertia. Each sweep's residual smoothed over its angles by "
+        f"Legendre polynomials of degrees 2 to {living.CHECK_DEGREE} is structure the model "
+        f"left when its RMS exceeds {living.CHECK_TOLERANCE:g} N m and "
+        f"{living.CHECK_RATIO:g} times the trial's white noise in the same projection; "
+        + (f"{plural(flagged, 'trial')} showed it." if flagged else "no trial showed it.")
+    )
     return paras
 
 
@@ -436,11 +724,12 @@ def methods_sections(result: Result) -> list[tuple[str, list[str | pd.DataFrame]
         priors.append(what + ".")
         priors.append(prior_table(prior))
         if prior.source:
-            priors.append(f"Source: {prior.source}.")
+            priors.append(f"Source: {_sourced(prior.source.rstrip('.'))}.")
     sections: list[tuple[str, list[str | pd.DataFrame]]] = [
         ("Protocol", list(_protocol(result))),
         ("Processing", list(_processing(result))),
         ("Statistical model", list(_model(result))),
+        ("Living joint", list(living_text(result))),
         ("Priors", priors),
         ("Sampling and convergence", list(_sampler(result))),
         ("Software", list(_software(result))),
@@ -448,9 +737,29 @@ def methods_sections(result: Result) -> list[tuple[str, list[str | pd.DataFrame]
     return [(h, items) for h, items in sections if items]
 
 
+#: A Pandoc citation of one or more keys: ``[@a]``, ``[@a; @b]``.
+_CITE = re.compile(r"\[(@[A-Za-z0-9_]+(?:; @[A-Za-z0-9_]+)*)\]")
+
+
+def _cited_keys(text: str) -> list[str]:
+    return [k.lstrip("@") for m in _CITE.finditer(text) for k in m.group(1).split("; ")]
+
+
 def references_of(result: Result) -> list[Reference]:
-    """The works the Methods text of ``result`` cites, for ``references.bib``."""
-    return cited(_prior_sources(result), emg=_uses_emg(result))
+    """The works the Methods text of ``result`` cites, for ``references.bib``.
+
+    Exactly the keys cited in the text (:func:`methods_sections`), in the order of
+    :data:`~inertiafit.report.references.REFERENCES`: a work is listed because the text cites
+    it where it is used, and every work cited is listed.
+    """
+    keys = {
+        k
+        for _, items in methods_sections(result)
+        for item in items
+        if isinstance(item, str)
+        for k in _cited_keys(item)
+    }
+    return [r for k, r in REFERENCES.items() if k in keys]
 
 
 def methods_markdown(result: Result) -> str:
@@ -473,19 +782,18 @@ def methods_markdown(result: Result) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-_CITE = re.compile(r"\[@([A-Za-z0-9_]+)\]")
-
-
 def methods_html(result: Result, table_html: Callable[[pd.DataFrame], str]) -> str:
     """The Methods text as an HTML fragment; citations shown as ``(Author year)``."""
     refs = {r.key: r for r in references_of(result)}
 
-    def cite(text: str) -> str:
+    def shown(text: str) -> str:
         escaped = html.escape(text)
-        return _CITE.sub(
-            lambda m: f"({html.escape(refs[m.group(1)].short)})" if m.group(1) in refs else "",
-            escaped,
-        )
+
+        def one(m: re.Match[str]) -> str:
+            keys = [k.lstrip("@") for k in m.group(1).split("; ")]
+            return "(" + "; ".join(html.escape(refs[k].short) for k in keys if k in refs) + ")"
+
+        return _CITE.sub(one, escaped)
 
     parts = []
     for heading, items in methods_sections(result):
@@ -494,7 +802,7 @@ def methods_html(result: Result, table_html: Callable[[pd.DataFrame], str]) -> s
             parts.append(
                 table_html(item)
                 if isinstance(item, pd.DataFrame)
-                else f"<p class='methods'>{cite(item)}</p>"
+                else f"<p class='methods'>{shown(item)}</p>"
             )
     parts.append("<h3>References</h3><ol class='refs'>")
     parts += [f"<li>{html.escape(reference_text(r))}</li>" for r in refs.values()]

@@ -1,9 +1,12 @@
 """The reference list of a result: ``references.bib`` and the list shown in report.html.
 
-:data:`REFERENCES` holds every work inertiafit may cite, as BibTeX fields. :func:`cited` picks
-those a result uses: the method paper and the software always; an anthropometric table, the
-passive-joint sources or the EMG sources when the study's priors, its living joint or its
-trials draw on them (found by name in the sources its prior files give).
+:data:`REFERENCES` holds every work inertiafit may cite, as BibTeX fields: authors, year,
+title, journal or publisher, volume, pages and DOI wherever they exist (the method paper keeps
+what its copy states, and says in its ``note`` what that copy does not). The Methods text
+(:mod:`inertiafit.report.methods`) cites a work by its key (:func:`cite`) where it uses it: a
+prior's source is quoted with the works it names (:func:`citations`, found by each work's
+``markers``), and ``references.bib`` holds exactly the works the text cites. :func:`cited`
+lists the works a set of source texts names, after the method paper and the software.
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ __all__ = [
     "REFERENCES",
     "Reference",
     "bibtex",
+    "citations",
+    "cite",
     "cited",
     "reference_text",
 ]
@@ -37,7 +42,7 @@ class Reference:
     @property
     def short(self) -> str:
         """``Author et al. (year)`` or ``Author (year)`` for the text."""
-        authors = self.fields.get("author", "").split(" and ")
+        authors = _plain(self.fields.get("author", "")).split(" and ")
         first = authors[0].split(",")[0].strip() or self.key
         etal = " et al." if len(authors) > 2 or "others" in authors else ""
         if len(authors) == 2 and "others" not in authors:
@@ -56,12 +61,13 @@ REFERENCES: dict[str, Reference] = {
                 "author": "Son, J. and others",
                 "title": "Determination of inertial parameters using a dynamometer",
                 "note": (
-                    "The method paper. The copy inertiafit was built from gives the running "
-                    "head 'J. Son et al. / Determination of inertial parameters using a "
-                    "dynamometer' and page 2454; add the journal, volume, year and pages from "
-                    "the published article"
+                    "The method paper. The copy inertiafit was built from states no journal, "
+                    "volume, year or page range: its running head reads 'J. Son et al. / "
+                    "Determination of inertial parameters using a dynamometer' and one of its "
+                    "pages is numbered 2454; add the venue from the published article"
                 ),
             },
+            ("Son et al.",),
         ),
         Reference(
             "foreman_mackey_emcee_2013",
@@ -146,8 +152,10 @@ REFERENCES: dict[str, Reference] = {
                 "author": "Winter, David A.",
                 "title": "Biomechanics and Motor Control of Human Movement",
                 "edition": "4th",
-                "publisher": "Wiley",
+                "publisher": "John Wiley \\& Sons",
+                "address": "Hoboken, NJ",
                 "year": "2009",
+                "doi": "10.1002/9780470549148",
                 "note": "Table 4.1",
             },
             ("Winter D.A.",),
@@ -158,8 +166,10 @@ REFERENCES: dict[str, Reference] = {
             {
                 "author": "Dempster, Wilfrid Taylor",
                 "title": "Space requirements of the seated operator",
-                "institution": "Wright-Patterson Air Force Base",
-                "number": "WADC-TR-55-159",
+                "institution": "Wright Air Development Center, Wright-Patterson Air Force "
+                "Base, Ohio",
+                "type": "WADC Technical Report",
+                "number": "55-159",
                 "year": "1955",
             },
             ("Dempster",),
@@ -169,11 +179,14 @@ REFERENCES: dict[str, Reference] = {
             "article",
             {
                 "author": "Durkin, Jennifer L. and Dowling, James J.",
+                "title": "Analysis of body segment parameter differences between four human "
+                "populations and the estimation errors of four popular mathematical models",
                 "journal": "Journal of Biomechanical Engineering",
                 "volume": "125",
+                "number": "4",
                 "pages": "515--522",
                 "year": "2003",
-                "note": "guides the spread of the anthropometric priors",
+                "doi": "10.1115/1.1590359",
             },
             ("Durkin & Dowling",),
         ),
@@ -181,12 +194,15 @@ REFERENCES: dict[str, Reference] = {
             "rossi_2013",
             "article",
             {
-                "author": "Rossi, M. and others",
+                "author": "Rossi, Marcel and Lyttle, Andrew and El-Sallam, Amar and "
+                "Benjanuvatra, Nat and Blanksby, Brian",
+                "title": "Body segment inertial parameters of elite swimmers using {DXA} and "
+                "indirect methods",
                 "journal": "Journal of Sports Science and Medicine",
                 "volume": "12",
+                "number": "4",
                 "pages": "761--775",
                 "year": "2013",
-                "note": "guides the spread of the anthropometric priors",
             },
             ("Rossi et al.",),
         ),
@@ -194,9 +210,15 @@ REFERENCES: dict[str, Reference] = {
             "merrill_2019",
             "article",
             {
-                "author": "Merrill, Z. and others",
+                "author": "Merrill, Z. and Perera, S. and Cham, R.",
+                "title": "Predictive regression modeling of body segment parameters using "
+                "individual-based anthropometric measurements",
+                "journal": "Journal of Biomechanics",
+                "volume": "96",
+                "pages": "109349",
                 "year": "2019",
-                "note": "PMC6905426; guides the spread of the anthropometric priors",
+                "doi": "10.1016/j.jbiomech.2019.109349",
+                "note": "PMCID PMC6905426",
             },
             ("Merrill et al.",),
         ),
@@ -209,21 +231,68 @@ REFERENCES: dict[str, Reference] = {
                 "extremities",
                 "journal": "Journal of Biomechanics",
                 "volume": "32",
+                "number": "5",
                 "pages": "539--544",
                 "year": "1999",
+                "doi": "10.1016/S0021-9290(99)00009-3",
             },
             ("Riener & Edrich",),
+        ),
+        Reference(
+            "anderson_1999",
+            "phdthesis",
+            {
+                "author": "Anderson, III, Frank Clayton",
+                "title": "A dynamic optimization solution for a complete cycle of normal gait",
+                "school": "The University of Texas at Austin",
+                "year": "1999",
+            },
+            ("Anderson 1999",),
+        ),
+        Reference(
+            "solin_sarkka_2020",
+            "article",
+            {
+                "author": 'Solin, Arno and S{\\"a}rkk{\\"a}, Simo',
+                "title": "Hilbert space methods for reduced-rank {Gaussian} process regression",
+                "journal": "Statistics and Computing",
+                "volume": "30",
+                "number": "2",
+                "pages": "419--446",
+                "year": "2020",
+                "doi": "10.1007/s11222-019-09886-w",
+            },
+        ),
+        Reference(
+            "riutort_mayol_2023",
+            "article",
+            {
+                "author": 'Riutort-Mayol, G. and B{\\"u}rkner, Paul-Christian and '
+                "Andersen, M. R. and Solin, Arno and Vehtari, Aki",
+                "title": "Practical {Hilbert} space approximate {Bayesian} {Gaussian} processes "
+                "for probabilistic programming",
+                "journal": "Statistics and Computing",
+                "volume": "33",
+                "number": "1",
+                "pages": "17",
+                "year": "2023",
+                "doi": "10.1007/s11222-022-10167-2",
+            },
         ),
         Reference(
             "wiegner_watts_1986",
             "article",
             {
                 "author": "Wiegner, A. W. and Watts, R. L.",
+                "title": "Elastic properties of muscles measured at the elbow in man: {I}. "
+                "Normal controls",
                 "journal": "Journal of Neurology, Neurosurgery, and Psychiatry",
                 "volume": "49",
+                "number": "10",
                 "pages": "1171",
                 "year": "1986",
-                "note": "relaxed elbow stiffness",
+                "doi": "10.1136/jnnp.49.10.1171",
+                "note": "first page only",
             },
             ("Wiegner & Watts",),
         ),
@@ -288,6 +357,27 @@ def cited(sources: Iterable[str], *, emg: bool = False) -> list[Reference]:
     return [REFERENCES[k] for k in dict.fromkeys(keys)]
 
 
+def citations(text: str) -> list[str]:
+    """The keys of the works a source text names (one of their markers is in it), in order."""
+    return [r.key for r in REFERENCES.values() if any(m in text for m in r.markers)]
+
+
+def cite(keys: Iterable[str]) -> str:
+    """A Pandoc citation of ``keys``: ``[@a]``, ``[@a; @b]``; ``""`` for none.
+
+    Raises
+    ------
+    KeyError
+        A key that is not in :data:`REFERENCES` (a citation ``references.bib`` could not
+        resolve).
+    """
+    keys = list(dict.fromkeys(keys))
+    unknown = [k for k in keys if k not in REFERENCES]
+    if unknown:  # a bug: fail where the citation is written, not in a reader's Pandoc run
+        raise KeyError(f"no reference {unknown[0]!r} in REFERENCES")
+    return f"[{'; '.join(f'@{k}' for k in keys)}]" if keys else ""
+
+
 def bibtex(references: Iterable[Reference]) -> str:
     """The references as one BibTeX file."""
     entries = []
@@ -298,9 +388,13 @@ def bibtex(references: Iterable[Reference]) -> str:
     return "\n".join(entries)
 
 
+#: The TeX of the few accents and symbols the entries use, and their characters.
+_TEX = (('{\\"u}', "ü"), ('{\\"a}', "ä"), ("$\\widehat{R}$", "R-hat"), ("\\&", "&"))
+
+
 def _plain(text: str) -> str:
     """BibTeX field text for reading: braces and the few accents used here removed."""
-    for tex, ch in (('{\\"u}', "ü"), ("$\\widehat{R}$", "R-hat")):
+    for tex, ch in _TEX:
         text = text.replace(tex, ch)
     return text.replace("{", "").replace("}", "").replace("--", "–")
 
@@ -312,15 +406,22 @@ def reference_text(ref: Reference) -> str:
     parts = [f"{authors} ({f['year']})." if "year" in f else authors.rstrip(".") + "."]
     if "title" in f:
         parts.append(f"{f['title']}.")
-    venue = f.get("journal") or f.get("publisher") or f.get("institution") or ""
-    if venue:
+    if "journal" in f:
         detail = " ".join(
             filter(
                 None,
-                [venue, f.get("volume", ""), f"({f['number']})" if "number" in f else ""],
+                [f["journal"], f.get("volume", ""), f"({f['number']})" if "number" in f else ""],
             )
         )
         parts.append(detail + (f", {f['pages']}." if "pages" in f else "."))
+    else:  # a book, a report, a thesis: who published it, and which one
+        what = [f"{f['edition']} ed." if "edition" in f else ""]
+        what.append(" ".join(filter(None, [f.get("type", ""), f.get("number", "")])))
+        if ref.kind == "phdthesis":
+            what.append("PhD thesis")
+        what += [f.get(k, "") for k in ("publisher", "institution", "school", "address")]
+        if any(what):
+            parts.append(", ".join(filter(None, what)) + ".")
     if "doi" in f:
         parts.append(f"doi:{f['doi']}")
     if "note" in f:
