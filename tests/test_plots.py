@@ -10,6 +10,7 @@ intended change, look at the new images, then::
 
 from __future__ import annotations
 
+import functools
 import itertools
 import os
 import shutil
@@ -30,7 +31,7 @@ from inertiafit.baseline import curve_mass_intervals, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.physics import PARAMETERS, REPORTED
 from inertiafit.plotting import raster
-from inertiafit.plotting.corner import IDEAL_COLOUR
+from inertiafit.plotting.corner import IDEAL_COLOUR, IDEAL_LABEL, TRUTH_LABEL
 from inertiafit.posterior import Posterior
 from inertiafit.report import plots
 from inertiafit.report.plots.identification import curve_verdict
@@ -357,6 +358,98 @@ def test_corner_draws_the_ideal_body_apart_from_the_truth(posterior):
     assert [ln.get_linestyle() for ln in ideal] == ["--"]
     joint = plots.plot_joint_corner(posterior, ideals={"weight": {"mass": 2.92}})
     assert lines(np.asarray(joint.axes).reshape(6, 6)[-1, 3], IDEAL_COLOUR) == [2.92]
+
+
+def test_corner_legend_names_the_truth_and_the_ideal_lines(posterior):
+    def legend(fig):
+        if not fig.legends:
+            return {}
+        (box,) = fig.legends
+        return {
+            text.get_text(): (handle.get_color(), handle.get_linestyle())
+            for text, handle in zip(box.get_texts(), box.legend_handles, strict=True)
+        }
+
+    both = posterior.corner(
+        "weight", parameters=("mass", "com_distance"), truths={"mass": 2.85}, ideal={"mass": 2.92}
+    )
+    assert legend(both) == {
+        TRUTH_LABEL: (plots.PALETTE[1], "-"),
+        IDEAL_LABEL: (IDEAL_COLOUR, "--"),
+    }
+    # it sits in the empty upper triangle: above the last diagonal panel, inside the figure
+    both.draw_without_rendering()
+    box = both.legends[0].get_window_extent()
+    last = np.asarray(both.axes).reshape(2, 2)[-1, -1].get_window_extent()
+    assert box.x1 <= both.bbox.x1
+    assert box.y0 >= last.y1
+    # the engine names only the lines it draws
+    rng = np.random.default_rng(1)
+    small = {
+        "columns": [rng.normal(size=300), rng.normal(size=300)],
+        "labels": ["a", "b"],
+        "titles": ["a", "b"],
+        "ranges": [(-4.0, 4.0), (-4.0, 4.0)],
+        "boxes": [None, None],
+        "priors": [None, None],
+    }
+    assert list(legend(plots.corner_figure(**small, truths=[0.5, None]))) == [TRUTH_LABEL]
+    assert list(legend(plots.corner_figure(**small, ideals=[None, 0.2]))) == [IDEAL_LABEL]
+    assert legend(plots.corner_figure(**small, truths=[None, None], ideals=None)) == {}
+
+
+def deceleration_traces(seed: int = 0) -> list[dict]:
+    """:func:`synthetic_traces` with a deceleration window after each trial's constant speed."""
+    traces = synthetic_traces(seed)
+    for k, t in enumerate(traces):
+        t1 = t["window"][1]
+        t["deceleration"] = (t1 + 0.3 + 0.001 * k, t1 + 0.36 + 0.002 * k)
+    return traces
+
+
+def test_living_fast_trials_shade_the_deceleration_window_each_speed_used():
+    from inertiafit.report.plots.living import DECELERATION_GID, deceleration_spans
+
+    traces = deceleration_traces()
+    fig = plots.plot_living_fast_trials(traces, title="B")
+    spans = deceleration_spans(traces)
+    assert sorted(spans) == [240.0, 270.0, 300.0]
+    for speed, (lo, hi) in spans.items():
+        own = [t for t in traces if t["speed"] == speed]
+        starts = [t["deceleration"][0] - t["window"][0] for t in own]
+        ends = [t["deceleration"][1] - t["window"][0] for t in own]
+        assert (lo, hi) == (np.median(starts), np.median(ends))
+    for ax in fig.axes[:2]:  # velocity and acceleration panels
+        drawn = {
+            a.get_gid(): (a.get_x(), a.get_x() + a.get_width())
+            for a in ax.patches
+            if str(a.get_gid()).startswith(DECELERATION_GID)
+        }
+        assert drawn == {f"{DECELERATION_GID}:{s:g}": pytest.approx(v) for s, v in spans.items()}
+    one = traces[:1]  # one trial: its own window, exactly
+    (patch,) = [a for a in plots.plot_living_fast_trials(one).axes[0].patches if a.get_gid()]
+    t0 = one[0]["window"][0]
+    start, end = one[0]["deceleration"]
+    assert (patch.get_x(), patch.get_x() + patch.get_width()) == (start - t0, end - t0)
+    # a rigid condition's trials have no deceleration window: nothing hatched
+    rigid = plots.plot_living_fast_trials(synthetic_traces())
+    assert not [a for a in rigid.axes[0].patches if a.get_gid()]
+    assert "hatched = deceleration windows" in fig._suptitle.get_text()
+
+
+def test_report_figures_are_300_dpi_by_default(tmp_path):
+    from PIL import Image
+
+    from inertiafit.report.figures import FigureRecord
+    from inertiafit.report.outputs import draw_figures
+
+    assert plots.DEFAULT_DPI == 300
+    record = FigureRecord("trials", functools.partial(plots.plot_inertia_by_speed,
+                          synthetic_trials()), "Trials", "")  # fmt: skip
+    draw_figures([record], tmp_path, ("png",), workers=1)
+    with Image.open(tmp_path / "trials.png") as image:
+        assert image.info["dpi"] == pytest.approx((300, 300), abs=0.01)
+        assert image.width == round(300 * record.make().get_figwidth())
 
 
 def test_identification_curve_panels_box_and_physics(posterior, baseline):

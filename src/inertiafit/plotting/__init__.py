@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from inertiafit.plotting.corner import corner_figure
 from inertiafit.plotting.style import (
+    DEFAULT_DPI,
     DOUBLE_COLUMN,
     FIGURE_FORMATS,
     PALETTE,
@@ -37,6 +38,7 @@ from inertiafit.plotting.style import (
 )
 
 __all__ = [
+    "DEFAULT_DPI",
     "DOUBLE_COLUMN",
     "FIGURE_FORMATS",
     "PALETTE",

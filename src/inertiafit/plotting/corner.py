@@ -25,7 +25,7 @@ from inertiafit.plotting.style import (
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["IDEAL_COLOUR", "corner_figure", "posterior_range"]
+__all__ = ["IDEAL_COLOUR", "IDEAL_LABEL", "TRUTH_LABEL", "corner_figure", "posterior_range"]
 
 
 def corner_figure(
@@ -65,10 +65,11 @@ def corner_figure(
         posterior's number of draws; or None.
     truths : sequence of float or None, optional
         Known values drawn as lines (solid, :data:`PALETTE` ``[1]``): a simulation's truth;
-        None entries are skipped.
+        None entries are skipped. The legend names them :data:`TRUTH_LABEL`.
     ideals : sequence of float or None, optional
         Reference values drawn as dashed lines in :data:`IDEAL_COLOUR` (an ideal, textbook
-        body), apart from ``truths``; None entries are skipped.
+        body), apart from ``truths``; None entries are skipped. The legend names them
+        :data:`IDEAL_LABEL`.
     quantiles : sequence of float
         Quantiles marked on the diagonal.
     note : str
@@ -159,7 +160,40 @@ def corner_figure(
             _ideal_lines(axes, ideals, rng)
         if note:
             fig.text(0.98, 0.98, note, ha="right", va="top", fontsize=8)
+        _legend(fig, truths=truths, ideals=ideals, below_note=bool(note))
     return fig
+
+
+#: Legend labels of the reference lines (the figure's legend, in its empty upper right).
+TRUTH_LABEL = "truth (simulation)"
+IDEAL_LABEL = "ideal body (textbook)"
+
+
+def _legend(
+    fig: Figure,
+    *,
+    truths: Sequence[float | None] | None,
+    ideals: Sequence[float | None] | None,
+    below_note: bool,
+) -> None:
+    """A legend for the truth and ideal lines drawn, in the empty upper triangle."""
+    from matplotlib.lines import Line2D
+
+    handles = []
+    if truths is not None and any(t is not None for t in truths):
+        handles.append(Line2D([], [], color=PALETTE[1], lw=1.0, label=TRUTH_LABEL))
+    if ideals is not None and any(v is not None for v in ideals):
+        handles.append(
+            Line2D([], [], color=IDEAL_COLOUR, ls=(0, (4, 2)), lw=0.9, label=IDEAL_LABEL)
+        )
+    if handles:
+        fig.legend(
+            handles=handles,
+            loc="upper right",
+            bbox_to_anchor=(0.985, 0.955 if below_note else 0.985),
+            frameon=False,
+            fontsize=7,
+        )
 
 
 #: Colour of the ideal body's dashed lines (the truth's are ``PALETTE[1]``).

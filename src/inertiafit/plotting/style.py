@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
+    "DEFAULT_DPI",
     "DEFAULT_FORMATS",
     "DOUBLE_COLUMN",
     "FIGURE_FORMATS",
@@ -84,6 +85,9 @@ FIGURE_FORMATS = ("pdf", "png", "svg")
 #: (``--formats png,pdf``): PNG, which report.html embeds. Vector PDF costs twice the PNG's
 #: time per figure, so it is written where asked.
 DEFAULT_FORMATS: tuple[str, ...] = ("png",)
+#: Resolution (dots per inch) of every PNG inertiafit saves, the figures of a report included:
+#: what journals ask of line art with text at print size.
+DEFAULT_DPI = 300
 
 
 def check_formats(formats: str | Iterable[str], where: str = "formats") -> tuple[str, ...]:
@@ -186,7 +190,7 @@ def save_figure(
     fig: Figure,
     stem: str | Path,
     formats: str | Iterable[str] = ("pdf", "png"),
-    dpi: float = 300,
+    dpi: float = DEFAULT_DPI,
 ) -> list[Path]:
     """Write a figure as vector PDF (and SVG when asked) and raster PNG.
 
@@ -199,7 +203,8 @@ def save_figure(
     formats : iterable of {"pdf", "png", "svg"}, or a comma-separated str
         Formats to write, in order (checked by :func:`check_formats`).
     dpi : float
-        Resolution of the PNG (dots per inch); rasterised layers of the vector files too.
+        Resolution of the PNG (dots per inch; default :data:`DEFAULT_DPI`); rasterised layers
+        of the vector files too.
 
     Returns
     -------

@@ -36,6 +36,7 @@ from inertiafit.processing.inertia import InertiaEstimate
 from inertiafit.processing.living import StaticRecord
 
 __all__ = [
+    "DECELERATION_TRACE_COLUMNS",
     "DIAGNOSTIC_COLUMN",
     "EMG_TRACE_COLUMNS",
     "EMG_TRIAL_COLUMNS",
@@ -131,6 +132,10 @@ TRACE_COLUMNS = [
     "velocity",
     "acceleration",
 ]
+#: Columns ``traces.csv`` gains when a fast trial was fitted over its deceleration too (a
+#: living body's: the inertia and the viscous damping together): that window's start and end
+#: (s), on the trial's clock as ``window_start``; empty for the other trials.
+DECELERATION_TRACE_COLUMNS = ["deceleration_start", "deceleration_end"]
 #: Points kept of each fast trial's moving part in the figure traces.
 TRACE_POINTS = 600
 _T = TypeVar("_T")
@@ -338,7 +343,7 @@ def fast_trace(condition: str, number: int, time, est: InertiaEstimate, speed: f
     sl = slice(lo, hi, step)
     sign = 1.0 if np.median(v[lo:hi]) >= 0 else -1.0  # plot every move as positive
     n = len(time[sl])
-    return {
+    out = {
         "condition": np.full(n, condition, dtype=object),
         "trial": np.full(n, number),
         "speed": np.full(n, speed),
@@ -348,14 +353,29 @@ def fast_trace(condition: str, number: int, time, est: InertiaEstimate, speed: f
         "velocity": sign * v[sl],
         "acceleration": sign * a[sl],
     }
+    if est.deceleration_start is not None and est.deceleration_end is not None:
+        out["deceleration_start"] = np.full(n, est.deceleration_start)
+        out["deceleration_end"] = np.full(n, est.deceleration_end)
+    return out
 
 
 def traces_frame(parts: list[dict]) -> pd.DataFrame:
-    """One frame of the traces of every fast trial, in order."""
+    """One frame of the traces of every fast trial, in order.
+
+    :data:`TRACE_COLUMNS`, and :data:`DECELERATION_TRACE_COLUMNS` when a trial has them (NaN
+    for the trials that do not).
+    """
     if not parts:
         return pd.DataFrame(columns=TRACE_COLUMNS)
+    columns = list(TRACE_COLUMNS)
+    if any(DECELERATION_TRACE_COLUMNS[0] in p for p in parts):
+        columns += DECELERATION_TRACE_COLUMNS
     return pd.DataFrame(
-        {c: np.concatenate([p[c] for p in parts]) for c in TRACE_COLUMNS}, columns=TRACE_COLUMNS
+        {
+            c: np.concatenate([p.get(c, np.full(len(p["time"]), np.nan)) for p in parts])
+            for c in columns
+        },
+        columns=columns,
     )
 
 

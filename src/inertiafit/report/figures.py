@@ -166,13 +166,22 @@ def figure_records(result: Result) -> list[FigureRecord]:
             )
     if len(result.trials):
         for cond, traces in traces_by_condition(result.traces).items():
+            if any("deceleration" in t for t in traces):  # a living body's: I and b together
+                draw = functools.partial(plots.plot_living_fast_trials, traces, title=cond)
+                windows = (
+                    "shaded: the detected uniform-acceleration window; hatched: the "
+                    "uniform-deceleration window, over which the inertia and the viscous "
+                    "damping were fitted with it"
+                )
+            else:
+                draw = functools.partial(plots.plot_fast_trials, traces, title=cond)
+                windows = "shaded: the detected uniform-acceleration window"
             add(
                 FigureRecord(
                     f"fast-trials-{cond}",
-                    functools.partial(plots.plot_fast_trials, traces, title=cond),
+                    draw,
                     "Trials",
-                    f"{cond}: filtered velocity and acceleration of the fast trials; shaded: "
-                    "the detected uniform-acceleration window",
+                    f"{cond}: filtered velocity and acceleration of the fast trials; {windows}",
                 )
             )
         emg = result.emg_traces

@@ -18,7 +18,7 @@ from concurrent.futures import Executor
 from pathlib import Path
 
 from inertiafit.io.outputs import write_csv
-from inertiafit.plotting.style import DEFAULT_FORMATS
+from inertiafit.plotting.style import DEFAULT_DPI, DEFAULT_FORMATS
 from inertiafit.report import plots
 from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.report.html import figure_png, study_report
@@ -63,7 +63,7 @@ def _draw(record: FigureRecord, folder: Path, formats: tuple[str, ...]) -> bytes
     fig = record.make()
     wanted = record.formats_of(formats)
     if wanted:
-        plots.save_figure(fig, folder / record.stem, wanted, dpi=150)
+        plots.save_figure(fig, folder / record.stem, wanted, dpi=DEFAULT_DPI)
     # Embed the PNG just written rather than drawing the figure once more.
     return (folder / f"{record.stem}.png").read_bytes() if "png" in wanted else figure_png(fig)
 

@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from inertiafit.inference.priors import Prior
@@ -215,17 +216,22 @@ def make_result(
 def traces_by_condition(traces: pd.DataFrame) -> dict[str, list[dict]]:
     """The trace table as one list per condition of one dict per trial.
 
-    The shape :func:`~inertiafit.report.plots.plot_fast_trials` draws.
+    The shape :func:`~inertiafit.report.plots.plot_fast_trials` draws; a trial fitted over its
+    deceleration too (a living body's) has its ``deceleration`` window, ``(start, end)`` (s).
     """
     out: dict[str, list[dict]] = {}
     for (cond, _), rows in traces.groupby(["condition", "trial"], sort=False):
-        out.setdefault(str(cond), []).append(
-            {
-                "time": rows["time"].to_numpy(float),
-                "velocity": rows["velocity"].to_numpy(float),
-                "acceleration": rows["acceleration"].to_numpy(float),
-                "window": (float(rows["window_start"].iloc[0]), float(rows["window_end"].iloc[0])),
-                "speed": float(rows["speed"].iloc[0]),
-            }
-        )
+        trace = {
+            "time": rows["time"].to_numpy(float),
+            "velocity": rows["velocity"].to_numpy(float),
+            "acceleration": rows["acceleration"].to_numpy(float),
+            "window": (float(rows["window_start"].iloc[0]), float(rows["window_end"].iloc[0])),
+            "speed": float(rows["speed"].iloc[0]),
+        }
+        if "deceleration_start" in rows and "deceleration_end" in rows:
+            start = float(rows["deceleration_start"].iloc[0])
+            end = float(rows["deceleration_end"].iloc[0])
+            if np.isfinite(start) and np.isfinite(end):
+                trace["deceleration"] = (start, end)
+        out.setdefault(str(cond), []).append(trace)
     return out

@@ -3,7 +3,9 @@
 One module per kind of figure: :mod:`~inertiafit.report.plots.trials` (fast trials, inertia by
 speed), :mod:`~inertiafit.report.plots.identification` (the identification curve),
 :mod:`~inertiafit.report.plots.diagnostics` (traces, rank plots),
-:mod:`~inertiafit.report.plots.emg` (EMG envelopes against their thresholds) and
+:mod:`~inertiafit.report.plots.emg` (EMG envelopes against their thresholds),
+:mod:`~inertiafit.report.plots.living` (a living joint's passive curve, static fit and fast
+trials with their deceleration windows) and
 :mod:`~inertiafit.report.plots.corner` (the joint corner plot). Posterior figures take a
 :class:`inertiafit.posterior.Posterior` (walkers are the ``chain`` dimension of its tree) and a
 body name. The house style, sizes and saving come from :mod:`inertiafit.plotting` and are
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 from inertiafit.plotting.corner import corner_figure
 from inertiafit.plotting.style import (
+    DEFAULT_DPI,
     DOUBLE_COLUMN,
     FIGURE_FORMATS,
     PALETTE,
@@ -32,11 +35,16 @@ from inertiafit.report.plots.corner import plot_joint_corner
 from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
 from inertiafit.report.plots.emg import plot_emg_envelopes
 from inertiafit.report.plots.identification import CURVE_PAIRS, plot_identification_curve
-from inertiafit.report.plots.living import plot_passive_curve, plot_static_fit
+from inertiafit.report.plots.living import (
+    plot_living_fast_trials,
+    plot_passive_curve,
+    plot_static_fit,
+)
 from inertiafit.report.plots.trials import plot_fast_trials, plot_inertia_by_speed
 
 __all__ = [
     "CURVE_PAIRS",
+    "DEFAULT_DPI",
     "DOUBLE_COLUMN",
     "FIGURE_FORMATS",
     "PALETTE",
@@ -53,6 +61,7 @@ __all__ = [
     "plot_identification_curve",
     "plot_inertia_by_speed",
     "plot_joint_corner",
+    "plot_living_fast_trials",
     "plot_passive_curve",
     "plot_rank",
     "plot_static_fit",

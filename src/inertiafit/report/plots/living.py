@@ -1,8 +1,16 @@
-"""A living joint's passive elastic moment, with the gravity moment beside it; the static fit."""
+"""A living joint's figures: its passive moment, its static fit, its fast trials' windows.
+
+The passive elastic moment with the gravity moment beside it; each quasi-static and rest
+trial against the static fit; a living condition's fast trials with both windows their
+inertia and viscous damping were fitted over.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 from inertiafit.plotting.style import (
     PALETTE,
@@ -11,12 +19,84 @@ from inertiafit.plotting.style import (
     new_figure,
     style_context,
 )
+from inertiafit.report.plots.trials import plot_fast_trials
 
 if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure
 
-__all__ = ["plot_passive_curve", "plot_static_fit"]
+__all__ = [
+    "DECELERATION_GID",
+    "deceleration_spans",
+    "plot_living_fast_trials",
+    "plot_passive_curve",
+    "plot_static_fit",
+]
+
+#: ``gid`` of each shaded deceleration window (``"deceleration-window:<speed>"``).
+DECELERATION_GID = "deceleration-window"
+
+
+def deceleration_spans(traces: Sequence[dict]) -> dict[float, tuple[float, float]]:
+    """Per preset speed, the deceleration window drawn: ``(start, end)`` (s) from window start.
+
+    The median over the speed's trials of each trial's deceleration window on the time axis
+    of :func:`~inertiafit.report.plots.plot_fast_trials` (its own uniform-acceleration
+    window's start at 0), as that figure draws one acceleration window per speed.
+    """
+    out = {}
+    for speed in sorted({float(t["speed"]) for t in traces}):
+        spans = [
+            (t["deceleration"][0] - t["window"][0], t["deceleration"][1] - t["window"][0])
+            for t in traces
+            if float(t["speed"]) == speed and t.get("deceleration") is not None
+        ]
+        if spans:
+            lo, hi = np.median(np.asarray(spans, dtype=np.float64), axis=0)
+            out[speed] = (float(lo), float(hi))
+    return out
+
+
+def plot_living_fast_trials(
+    traces: Sequence[dict], *, title: str = "", fig: Figure | None = None, width="double"
+) -> Figure:
+    """A living condition's fast trials: both windows the inertia and damping were fitted over.
+
+    :func:`~inertiafit.report.plots.plot_fast_trials` with, per preset speed, the
+    uniform-deceleration window shaded and hatched beside the acceleration window (the
+    median over the speed's trials, :func:`deceleration_spans`): a living body's fast trial
+    is fitted for ``I`` and the viscous damping ``b`` over both, which tells ``b omega`` from
+    ``I alpha`` (the acceleration changes sign, the speed does not).
+
+    Parameters
+    ----------
+    traces : sequence of dict
+        As :func:`~inertiafit.report.plots.plot_fast_trials` takes them, each with its
+        ``deceleration`` window ``(start, end)`` (s, the trial's clock), where it has one.
+    title : str
+        Figure title (the condition).
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into.
+    width : {"single", "double"} or float
+        Journal column or inches.
+    """
+    fig = plot_fast_trials(traces, fig=fig, width=width)
+    speeds = sorted({float(t["speed"]) for t in traces})
+    colour = {s: PALETTE[i % len(PALETTE)] for i, s in enumerate(speeds)}
+    with style_context():
+        for speed, (lo, hi) in deceleration_spans(traces).items():
+            for ax in fig.axes[:2]:
+                span = ax.axvspan(
+                    lo, hi, facecolor=colour[speed], edgecolor=colour[speed], alpha=0.15,
+                    hatch="///", lw=0,
+                )  # fmt: skip
+                span.set_gid(f"{DECELERATION_GID}:{speed:g}")
+        if title:
+            fig.suptitle(
+                f"{title}: fast trials, shaded = uniform-acceleration windows, hatched = "
+                "deceleration windows (I and b fitted over both)"
+            )
+    return fig
 
 
 def plot_passive_curve(
