@@ -22,6 +22,9 @@ The rules of an output folder (``--out``), which every command that writes one f
   and the old folder removed last. A failure at any step leaves one whole folder, old or new,
   at ``out``; an old folder that cannot be removed afterwards (a read-only subfolder) is left
   aside with a one-line warning, and the new outputs stay.
+- **Paths written are final paths** (:func:`final_text`): while a staging folder is written,
+  a path into it (a study simulated inside the output, as ``inertiafit demo`` does) is written
+  as the path it will have once the folder is swapped in; the staging name never outlives it.
 - **Nothing partial is left behind**: a staging folder is removed on any error, on Ctrl-C and
   on SIGTERM (which ends the command as an error does while it runs). One left by a run that
   was killed outright (SIGKILL, a power cut) is removed, with a warning naming it, by the next
@@ -61,6 +64,8 @@ __all__ = [
     "check_as_written",
     "check_out",
     "check_replaceable",
+    "final_path",
+    "final_text",
     "guard_outputs",
     "holds_only",
     "output_folder",
@@ -573,6 +578,38 @@ def _signals_held() -> Iterator[None]:
 
 # -- staging and the swap --------------------------------------------------------------------
 
+#: Each staging folder being written now -> the folder it becomes when swapped in, in the
+#: order they were made (an output folder staged inside another's staging folder comes later).
+_STAGED: dict[Path, Path] = {}
+
+
+def final_text(text: str) -> str:
+    """``text`` with every staging folder being written now named by its final folder.
+
+    A path written into an output file while its folder is staged (the manifest of a study
+    simulated inside the output, a trial file's path in the provenance) would otherwise name a
+    folder that is gone once the staging folder is renamed into place. Nested staging folders
+    are resolved innermost first.
+    """
+    for tmp, target in reversed(_STAGED.items()):
+        text = text.replace(str(tmp), str(target))
+    return text
+
+
+def final_path(path: str | Path) -> Path:
+    """``path`` as it will be once the output folders being written now are swapped in."""
+    return Path(final_text(os.fspath(path)))
+
+
+@contextmanager
+def _staged_as(tmp: Path, target: Path) -> Iterator[Path]:
+    """Register ``tmp`` as the staging folder of ``target`` for :func:`final_text`."""
+    _STAGED[tmp] = target
+    try:
+        yield tmp
+    finally:
+        _STAGED.pop(tmp, None)
+
 
 @contextmanager
 def _staging(parent: Path, prefix: str) -> Iterator[Path]:
@@ -652,7 +689,11 @@ def output_folder(out: str | Path) -> Iterator[Path]:
     claim.writing = True
     written = False
     try:
-        with _sigterm_ends(), _staging(target.parent, f".{target.name}.new-") as tmp:
+        with (
+            _sigterm_ends(),
+            _staging(target.parent, f".{target.name}.new-") as staged,
+            _staged_as(staged, target) as tmp,
+        ):
             yield tmp
             _write_marker(tmp, _listing(tmp))
             check_replaceable(target)  # again: under the lock, nothing of yours appeared
@@ -685,8 +726,10 @@ def replace_files(folder: str | Path) -> Iterator[Path]:
     try:
         with (
             _sigterm_ends(),
-            _staging(target.parent, f".{target.name}.draw-") as tmp,
+            _staging(target.parent, f".{target.name}.draw-") as drawing,
             _staging(target.parent, f".{target.name}.new-") as whole,
+            _staged_as(drawing, target) as tmp,
+            _staged_as(whole, target),
         ):
             yield tmp
             drawn = _listing(tmp)

@@ -2,12 +2,15 @@
 
 :func:`write_outputs` writes the whole set for every command that samples or redraws a
 posterior (``inertiafit run``, ``fit``, ``demo``, ``report``). It draws only from a
-:class:`~inertiafit.report.result.Result` and never reads trial files.
+:class:`~inertiafit.report.result.Result` and never reads trial files. Every path the result
+holds into an output folder still being staged (the demo's simulated study, read from inside
+its own output) is written as its final path (:func:`~inertiafit.io.outputs.final_text`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import multiprocessing
 import os
 import signal
@@ -16,8 +19,11 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor
 from pathlib import Path
+from typing import Any
 
-from inertiafit.io.outputs import write_csv
+import pandas as pd
+
+from inertiafit.io.outputs import final_text, write_csv
 from inertiafit.plotting.style import DEFAULT_DPI, DEFAULT_FORMATS
 from inertiafit.report import plots
 from inertiafit.report.figures import FigureRecord, figure_records
@@ -38,6 +44,7 @@ __all__ = [
     "draw_figures",
     "figure_workers",
     "idle_cores",
+    "with_final_paths",
     "write_outputs",
     "write_tables",
 ]
@@ -284,6 +291,54 @@ def write_tables(folder: Path, result: Result, *, hdi_prob: float) -> None:
             write_csv(result.living["static_fit"], folder / "static_fit.csv")
 
 
+def _final_frame(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` with :func:`final_text` applied to its text columns (a copy if it changes)."""
+    out = frame
+    for column in frame.columns:
+        if frame[column].dtype != object:
+            continue
+        mapped = frame[column].map(lambda v: final_text(v) if isinstance(v, str) else v)
+        if not mapped.equals(frame[column]):
+            out = out.copy() if out is frame else out
+            out[column] = mapped
+    return out
+
+
+def with_final_paths(result: Result) -> Result:
+    """``result`` with every path into a staging folder written as its final path.
+
+    The texts written from it: the posterior's attributes (``inputs``, ``provenance``), the
+    warnings, the manifest and the tables' text columns. The same ``result`` when nothing is
+    being staged or nothing names a staging folder.
+    """
+    tree = result.posterior.tree
+    renamed = {
+        node.path: {k: final_text(v) if isinstance(v, str) else v for k, v in node.attrs.items()}
+        for node in tree.subtree
+    }
+    changed_attrs = any(renamed[n.path] != dict(n.attrs) for n in tree.subtree)
+    posterior = result.posterior
+    if changed_attrs:
+        copy = tree.copy(deep=False)
+        for node in copy.subtree:
+            node.attrs = renamed[node.path]
+        posterior = type(posterior)(copy)
+    changes: dict[str, Any] = {
+        "warnings": tuple(final_text(w) for w in result.warnings),
+        "manifest": final_text(result.manifest),
+        "trials": _final_frame(result.trials),
+        "living": {k: _final_frame(v) for k, v in result.living.items()},
+    }
+    same = (
+        not changed_attrs
+        and changes["warnings"] == result.warnings
+        and changes["manifest"] == result.manifest
+        and changes["trials"] is result.trials
+        and all(changes["living"][k] is v for k, v in result.living.items())
+    )
+    return result if same else dataclasses.replace(result, posterior=posterior, **changes)
+
+
 def write_outputs(
     folder: Path,
     result: Result,
@@ -306,6 +361,7 @@ def write_outputs(
     shown in ``report.html``.
     """
     hdi_prob = result.hdi_prob if hdi_prob is None else hdi_prob
+    result = with_final_paths(result)
     before = {p.name for p in folder.iterdir()}
 
     def tables_and_data() -> None:
