@@ -92,9 +92,9 @@ def plot_living_fast_trials(
                 )  # fmt: skip
                 span.set_gid(f"{DECELERATION_GID}:{speed:g}")
         if title:
-            fig.suptitle(
-                f"{title}: fast trials, shaded = uniform-acceleration windows, hatched = "
-                "deceleration windows (I and b fitted over both)"
+            fig.suptitle(  # two lines: one would run off a page-wide figure
+                f"{title}: fast trials, I and b fitted over both windows\n"
+                "shaded = uniform-acceleration windows, hatched = deceleration windows"
             )
     return fig
 
