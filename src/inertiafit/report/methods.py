@@ -374,11 +374,12 @@ class _PassivePrior:
         joint = self.record.get("joint") or (Path(str(record.get("path", ""))).stem or "generic")
         self.joint = str(joint)
         self.shipped: dict[str, Any] = {}
-        try:
-            from inertiafit.io.shipped import load_passive_prior
+        from inertiafit.errors import InputError
+        from inertiafit.io.shipped import load_passive_prior
 
+        try:
             self.shipped = load_passive_prior(self.joint)
-        except Exception:  # noqa: BLE001  # a file changed since: the table's numbers stand
+        except InputError:  # an unknown joint, a file gone or broken: the table's numbers stand
             self.shipped = {}
         table = result.living.get("passive_parameters")
         self.table = (
