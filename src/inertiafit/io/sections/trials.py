@@ -2,11 +2,14 @@
 
 :class:`TrialSpec` is one trial as the manifest states it; :func:`read_trial_spec` reads its
 file. The trials are read last (they name the bodies, the postures and the EMG channels the
-other sections declare), labelled by condition (what is mounted) and checked together.
+other sections declare), labelled by condition (what is mounted) and checked together. An
+entry names one file (``file``) or a glob pattern (``files``): a pattern becomes a trial per
+matched file, in sorted order, each with the entry's other keys (:func:`match_files`).
 """
 
 from __future__ import annotations
 
+import glob
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -51,6 +54,7 @@ __all__ = [
     "MOUNTING_KEYS",
     "TRIAL_KEYS",
     "TrialSpec",
+    "match_files",
     "read_defaults",
     "read_trial_spec",
     "read_trials",
@@ -76,7 +80,7 @@ DEFAULT_KEYS = (
     "posture",
     "emg",
 )
-TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *MOUNTING_KEYS, *DEFAULT_KEYS)
+TRIAL_KEYS = ("file", "bodies", "kind", "speed", "window", *MOUNTING_KEYS, *DEFAULT_KEYS, "files")
 
 
 @dataclass(frozen=True)
@@ -116,7 +120,9 @@ class TrialSpec:
     options : dict
         Keyword options passed to the reader.
     index : int
-        Position of the entry in ``[[trials]]`` (0-based), as used in error messages.
+        Position of the trial in :attr:`Study.trials <inertiafit.io.Study.trials>` (0-based),
+        a key unique in the study; the position of its ``[[trials]]`` entry while no entry
+        before it has ``files``.
     lag : float or None
         The torque channel's lag (s) the manifest fixes for this trial: its own ``lag``, else
         ``[defaults] lag``, else a number in ``[calibration] lag``; ``None`` when the lag is
@@ -130,6 +136,12 @@ class TrialSpec:
         ``[defaults] emg``, else ``[emg] columns``; empty when none.
     emg_unit : str or None
         ``[emg] unit`` (``V``, ``mV``, ``µV``), where the file does not say; ``None``: volts.
+    entry : int
+        Position of the ``[[trials]]`` entry the trial comes from (0-based): ``trials[entry]``
+        in error messages.
+    pattern : str
+        The entry's ``files`` glob pattern that matched :attr:`file`, as written; ``""`` for an
+        entry with ``file``.
     """
 
     file: Path
@@ -149,6 +161,13 @@ class TrialSpec:
     posture: str = ""
     emg: tuple[str, ...] = ()
     emg_unit: str | None = None
+    entry: int = 0
+    pattern: str = ""
+
+    @property
+    def key(self) -> str:
+        """The manifest key that names this trial's file: ``trials[3].file`` or ``.files``."""
+        return f"trials[{self.entry}].{'files' if self.pattern else 'file'}"
 
     @property
     def bodies(self) -> tuple[str, ...]:
@@ -302,11 +321,13 @@ def _check_mvc(trials: list[TrialSpec], emg_table: object, *, where: str) -> Non
             continue
         missing = [m for m in t.emg if m not in recorded]
         if missing:
-            listed = ", ".join(f"trials[{x.index}]" for x in mvc[:3])
+            listed = ", ".join(
+                f"trials[{e}]" for e in list(dict.fromkeys(x.entry for x in mvc))[:3]
+            )
             raise fail(
-                f"{where}: trials[{mvc[0].index}].emg",
+                f"{where}: trials[{mvc[0].entry}].emg",
                 f"no mvc trial ({listed}) records EMG channel {missing[0]!r}, which "
-                f"trials[{t.index}] records; record every checked muscle in an mvc trial",
+                f"trials[{t.entry}] records; record every checked muscle in an mvc trial",
             )
 
 
@@ -406,6 +427,62 @@ def _label_conditions(trials: list[TrialSpec]) -> list[TrialSpec]:
     return [replace(t, condition=labels[_condition_key(t)]) for t in trials]
 
 
+def match_files(pattern: object, base: Path, *, where: str) -> list[tuple[Path, str]]:
+    """The files a ``files`` glob pattern matches, relative to ``base``, sorted.
+
+    ``*``, ``?`` and ``[...]`` match within a folder name, ``**`` any number of folders; a
+    name starting with ``.`` is matched only by a pattern that starts it with ``.`` (as in a
+    shell). Folders matched are left out. The order is the sorted order of the matched paths
+    as written relative to ``base`` (code points: ``B_240_10`` before ``B_240_2``; number
+    files with leading zeros). Returns ``(absolute path, path as matched)`` pairs.
+
+    Raises
+    ------
+    InputError
+        ``<where>: ...`` naming the pattern, when it is not a non-empty string or matches no
+        file.
+    """
+    if not isinstance(pattern, str) or not pattern.strip():
+        raise fail(
+            where,
+            f'expected a glob pattern (a string such as "data/B_240_*.csv"), got {pattern!r}',
+        )
+    if "\x00" in pattern:
+        raise fail(where, f"a pattern cannot hold a NUL character, got {pattern!r}")
+    expanded = str(Path(pattern).expanduser())
+    found = sorted(glob.glob(expanded, root_dir=base, recursive=True))
+    out = [(path, shown) for shown in found if (path := (base / shown).resolve()).is_file()]
+    if not out:
+        folders = f" ({len(found)} folders do)" if found else ""
+        raise fail(where, f"no file matches {pattern!r} (relative to {base}){folders}")
+    return out
+
+
+def _entry_files(entry: Mapping[str, Any], *, here: str, base: Path) -> list[tuple[Path, str]]:
+    """The files of one ``[[trials]]`` entry: its ``file``, or every match of its ``files``."""
+    if "file" in entry and "files" in entry:
+        raise fail(
+            here,
+            f"both file = {entry['file']!r} and files = {entry['files']!r}; expected one: file "
+            "for one trial, files for a glob pattern whose every match is a trial",
+        )
+    if "files" in entry:
+        return match_files(entry["files"], base, where=f"{here}.files")
+    if "file" not in entry:
+        raise fail(
+            f"{here}.file",
+            "missing (the trial file, relative to the manifest; or files = a glob pattern)",
+        )
+    if not isinstance(entry["file"], str) or not entry["file"].strip():
+        raise fail(f"{here}.file", f"expected a path (a string), got {entry['file']!r}")
+    if "\x00" in entry["file"]:
+        raise fail(f"{here}.file", f"a path cannot hold a NUL character, got {entry['file']!r}")
+    file = (base / Path(entry["file"]).expanduser()).resolve()
+    if not file.is_file():
+        raise fail(f"{here}.file", f"file not found: {file}")
+    return [(file, entry["file"])]
+
+
 def _trial(
     entry: object,
     i: int,
@@ -417,20 +494,19 @@ def _trial(
     postures: Mapping[str, Posture],
     living: str,
     emg: EmgSettings | None = None,
-) -> TrialSpec:
+    start: int = 0,
+) -> list[TrialSpec]:
+    """The trials of ``[[trials]]`` entry ``i``: one for ``file``, one per match of ``files``.
+
+    Every key but the file is the entry's, checked once; what depends on the file (the
+    format it is recognised as, and the options and channels that format takes) is checked
+    per file, its messages naming the file. ``start`` is the first trial's :attr:`index`.
+    """
     here = f"{where}: trials[{i}]"
     entry = as_table(entry, where=here, what="file, bodies, kind, ...")
     check_keys(entry, TRIAL_KEYS, where=here)
-
-    if "file" not in entry:
-        raise fail(f"{here}.file", "missing (the trial file, relative to the manifest)")
-    if not isinstance(entry["file"], str) or not entry["file"].strip():
-        raise fail(f"{here}.file", f"expected a path (a string), got {entry['file']!r}")
-    if "\x00" in entry["file"]:
-        raise fail(f"{here}.file", f"a path cannot hold a NUL character, got {entry['file']!r}")
-    file = (base / Path(entry["file"]).expanduser()).resolve()
-    if not file.is_file():
-        raise fail(f"{here}.file", f"file not found: {file}")
+    files = _entry_files(entry, here=here, base=base)
+    pattern = entry.get("files", "")
 
     names = entry.get("bodies")
     if names is None:
@@ -496,10 +572,66 @@ def _trial(
             f"missing; with [postures] every trial names its posture, here or in [defaults] "
             f"(postures: {', '.join(postures)})",
         )
-    fmt = own.get("format", defaults.get("format")) or recognised_format(file) or "csv"
     merged: dict[str, dict[str, Any]] = {}
     for key in ("columns", "units", "calibration", "options"):
         merged[key] = {**defaults.get(key, {}), **own.get(key, {})}
+    muscles, emg_from = _trial_emg(own, defaults, emg, here=here, where=where)
+    if kind == "mvc" and not muscles:
+        raise fail(
+            f"{here}.emg",
+            "no EMG channels; an mvc trial is read for its EMG (each muscle's MVC level): give it "
+            "emg = [...] (or [defaults] emg, or [emg] columns)",
+        )
+    out = []
+    for k, (file, shown) in enumerate(files):
+        # a matched file's messages name it: its format may be its own (a C3D file among CSVs)
+        at = f"{here} ({shown})" if pattern else here
+        fmt = _format(
+            own, defaults, file, merged, muscles, emg_from, here=at, shown=at if pattern else ""
+        )
+        out.append(
+            TrialSpec(
+                file=file,
+                mounting=Mounting(bodies, offset_body, offset, added),
+                kind=kind,
+                speed=speed,
+                format=fmt,
+                columns=dict(merged["columns"]),
+                units=dict(merged["units"]),
+                calibration={c: dict(v) for c, v in merged["calibration"].items()},
+                window=window,
+                torque_sign=own.get("torque_sign", defaults.get("torque_sign", 1)),
+                condition="+".join(bodies),
+                options=dict(merged["options"]),
+                index=start + k,
+                lag=own.get("lag", defaults.get("lag")),
+                posture=posture,
+                emg=muscles,
+                emg_unit=emg.unit if emg is not None and muscles else None,
+                entry=i,
+                pattern=pattern,
+            )
+        )
+    return out
+
+
+def _format(
+    own: Mapping[str, Any],
+    defaults: Mapping[str, Any],
+    file: Path,
+    merged: Mapping[str, Mapping[str, Any]],
+    muscles: tuple[str, ...],
+    emg_from: str,
+    *,
+    here: str,
+    shown: str = "",
+) -> str:
+    """The format ``file`` is read with, checked against the settings that depend on it.
+
+    ``here`` starts the messages of the entry's own keys; ``shown`` names a matched file (the
+    entry and the file) in a message whose key was set elsewhere (``[defaults] emg``).
+    """
+    fmt = own.get("format", defaults.get("format")) or recognised_format(file) or "csv"
     if fmt == "analog":
         for channel in ("angle", "velocity", "torque"):
             if channel not in merged["calibration"]:
@@ -508,19 +640,12 @@ def _trial(
                     "missing; the analog format needs { scale, offset, unit } per channel "
                     "(value = scale x volts + offset)",
                 )
-    muscles, emg_from = _trial_emg(own, defaults, emg, here=here, where=where)
-    if kind == "mvc" and not muscles:
-        raise fail(
-            f"{here}.emg",
-            "no EMG channels; an mvc trial is read for its EMG (each muscle's MVC level): give it "
-            "emg = [...] (or [defaults] emg, or [emg] columns)",
-        )
     if muscles and not carries_emg(fmt):
         raise fail(
             emg_from,
             f"format '{fmt}' has no EMG channels (formats with EMG: "
             f"{', '.join(f for f in available_formats() if carries_emg(f))}); remove emg for "
-            "this trial (emg = [])",
+            f"this trial (emg = []){f' ({shown.rpartition(": ")[2]})' if shown else ''}",
         )
     allowed = reader_options(fmt)
     for option in merged["options"]:
@@ -530,25 +655,7 @@ def _trial(
                 f"{here}.options.{option}",
                 f"unknown option for format '{fmt}' (options: {listed})",
             )
-    return TrialSpec(
-        file=file,
-        mounting=Mounting(bodies, offset_body, offset, added),
-        kind=kind,
-        speed=speed,
-        format=fmt,
-        columns=merged["columns"],
-        units=merged["units"],
-        calibration=merged["calibration"],
-        window=window,
-        torque_sign=own.get("torque_sign", defaults.get("torque_sign", 1)),
-        condition="+".join(bodies),
-        options=merged["options"],
-        index=i,
-        lag=own.get("lag", defaults.get("lag")),
-        posture=posture,
-        emg=muscles,
-        emg_unit=emg.unit if emg is not None and muscles else None,
-    )
+    return fmt
 
 
 def _trial_emg(
@@ -613,8 +720,9 @@ def read_trials(value: object, ctx: SectionContext) -> list[TrialSpec]:
         raise fail(f"{where}: trials", "expected [[trials]] entries (an array of tables)")
     living = ctx.living
     assert ctx.base is not None
-    trials = [
-        _trial(
+    trials: list[TrialSpec] = []
+    for i, entry in enumerate(value):
+        trials += _trial(
             entry,
             i,
             defaults=ctx.read.get("defaults", {}),
@@ -624,21 +732,23 @@ def read_trials(value: object, ctx: SectionContext) -> list[TrialSpec]:
             postures=ctx.read.get("postures", {}),
             living=living,
             emg=ctx.read.get("emg"),
+            start=len(trials),
         )
-        for i, entry in enumerate(value)
-    ]
-    seen: dict[Path, int] = {}
+    seen: dict[Path, TrialSpec] = {}
     for trial in trials:
         if trial.file in seen:
+            first = seen[trial.file]
+            matched = f" (files = {first.pattern!r})" if first.pattern else ""
             raise fail(
-                f"{where}: trials[{trial.index}].file",
-                f"{trial.file} is already trials[{seen[trial.file]}]; each recording counts once",
+                f"{where}: {trial.key}",
+                f"{trial.file} is already trials[{first.entry}]{matched}; each recording "
+                "counts once",
             )
-        seen[trial.file] = trial.index
+        seen[trial.file] = trial
     trials = _label_conditions(trials)
     for condition in dict.fromkeys(t.condition for t in trials):
         members = [t for t in trials if t.condition == condition]
-        fast = [t.index for t in members if t.kind == "fast"]
+        fast = list(dict.fromkeys(t.entry for t in members if t.kind == "fast"))
         if fast and not any(t.kind == "quasi-static" for t in members):
             listed = ", ".join(f"trials[{i}]" for i in fast[:3]) + (
                 ", ..." if len(fast) > 3 else ""
@@ -648,8 +758,8 @@ def read_trials(value: object, ctx: SectionContext) -> list[TrialSpec]:
                 f"condition '{condition}' has fast trials ({listed}) but no quasi-static trial; "
                 'add one with kind = "quasi-static" (it gives the gravitational moment)',
             )
-        rest = [t.index for t in members if t.kind == "rest"]
-        mvc = [t.index for t in members if t.kind == "mvc"]
+        rest = [t.entry for t in members if t.kind == "rest"]
+        mvc = [t.entry for t in members if t.kind == "mvc"]
         if mvc and not any(t.kind == "quasi-static" for t in members):
             raise fail(
                 f"{where}: trials[{mvc[0]}].bodies",
