@@ -32,9 +32,11 @@ def test_text_report_states_intervals_identification_and_the_mass_bound(attachme
     assert "data + prior" in text
     assert "m >= (M_g/g)^2/I = 2.64" in text
     # header lines, 5 quantities, one bound line, "what pins what" with a line per body,
-    # a correlation line per body, the calibration line
-    assert text.count("\n") == 1 + 5 + 1 + 2 + 1 + 1
-    assert "m, x and rho decided by the prior" in text
+    # the prior-data check, a correlation line per body, the calibration line
+    assert text.count("\n") == 1 + 5 + 1 + 2 + 1 + 1 + 1
+    assert "m, x and rho by the data and the prior together" in text
+    assert "Prior-data check" in text
+    assert "(conflict)" not in text
     assert text.endswith("every interval assumes an exact torque calibration.")
 
 

@@ -1,6 +1,12 @@
 # The public API of inertiafit, loaded lazily by lazy_loader.attach_stub (see __init__.py).
 from .baseline import paper_baseline
-from .errors import ConvergenceWarning, InertiafitWarning, InputError, StudyRefused
+from .errors import (
+    ConvergenceWarning,
+    InertiafitWarning,
+    InputError,
+    PriorDataConflictWarning,
+    StudyRefused,
+)
 from .inference.fit import fit, fit_body
 from .inference.model import Condition, Model
 from .inference.observations import Observation
@@ -36,6 +42,7 @@ __all__ = [
     "PopulationPosterior",
     "Posterior",
     "Prior",
+    "PriorDataConflictWarning",
     "Propagation",
     "SamplerSettings",
     "StudyRefused",

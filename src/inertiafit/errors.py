@@ -15,7 +15,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["ConvergenceWarning", "InertiafitWarning", "InputError", "StudyRefused"]
+__all__ = [
+    "ConvergenceWarning",
+    "InertiafitWarning",
+    "InputError",
+    "PriorDataConflictWarning",
+    "StudyRefused",
+]
 
 
 class InputError(ValueError):
@@ -62,3 +68,10 @@ class InertiafitWarning(UserWarning):
 
 class ConvergenceWarning(InertiafitWarning):
     """The sampler stopped at its step bound before every convergence criterion was met."""
+
+
+class PriorDataConflictWarning(InertiafitWarning):
+    """A body's data lie where its prior puts almost no mass (a prior-data conflict).
+
+    One line naming the body and the quantity (:mod:`inertiafit.posterior.conflict`).
+    """

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from collections.abc import Sequence
 from importlib.metadata import version
 
@@ -16,6 +17,7 @@ import numpy as np
 import xarray as xr
 
 from inertiafit._checks import check_seed
+from inertiafit.errors import PriorDataConflictWarning
 from inertiafit.inference.evidence import evidence_from_numbers, measured_from_numbers
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.priors import Prior, load_prior
@@ -356,6 +358,13 @@ def fit_body(
     -------
     Posterior
         The body is named after the prior.
+
+    Warns
+    -----
+    PriorDataConflictWarning
+        One per quantity the data put where the prior allows almost nothing
+        (:meth:`~inertiafit.posterior.Posterior.conflict_warnings`; :func:`fit` leaves them to
+        its caller, and a study keeps them in its result's ``warnings``).
     """
     seed = check_seed(seed)
     prior = load_prior(prior)
@@ -392,4 +401,7 @@ def fit_body(
     }
     if measured:
         inputs["measured"] = {k: [obs.center, obs.scale] for k, obs in measured.items()}
-    return fit(model, seed=seed, settings=settings, inputs=inputs)
+    post = fit(model, seed=seed, settings=settings, inputs=inputs)
+    for line in post.conflict_warnings():
+        warnings.warn(line, PriorDataConflictWarning, stacklevel=2)
+    return post

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -9,7 +10,7 @@ import numpy as np
 
 from inertiafit._checks import check_gravity, check_probability, check_seed
 from inertiafit.baseline import BaselineResult, paper_baseline
-from inertiafit.errors import InputError
+from inertiafit.errors import InputError, PriorDataConflictWarning
 from inertiafit.inference.fit import fit_body
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
@@ -116,7 +117,8 @@ def run_fit(
     check_out(out, inputs=[prior.path if isinstance(prior, Prior) else prior])
     prior_obj = load_prior(prior)
     # The figure workers start now and ready matplotlib while the posterior is sampled.
-    with figure_workers() as pool:
+    with figure_workers() as pool, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PriorDataConflictWarning)  # said below, as `run` does
         post = fit_body(
             prior_obj,
             inertia=inertia,
@@ -150,6 +152,11 @@ def run_fit(
     echo(post.report(hdi_prob))
     echo("")
     echo(fit_comparison_text(result))
+    for w in caught:
+        if issubclass(w.category, PriorDataConflictWarning):
+            echo(f"warning: {w.message}")
+        else:  # anything else as it came, under the caller's filters
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     tables = sorted({n.rsplit(".", 1)[0] for n in written if n.endswith(".md")} - {"methods"})
     figures = sorted({n.rsplit(".", 1)[0] for n in written if n.rsplit(".", 1)[-1] in fmts})
     echo(

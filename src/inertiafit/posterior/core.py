@@ -26,6 +26,7 @@ Root attributes hold the provenance: versions, seed, sampler settings and diagno
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +38,10 @@ from inertiafit._checks import check_path, check_probability
 from inertiafit.errors import InputError
 from inertiafit.io.outputs import write_csv
 from inertiafit.physics import PARAMETERS, REPORTED, SYMBOLS
-from inertiafit.posterior import display, pins
+from inertiafit.posterior import conflict, display, pins
 
 __all__ = [
+    "PREDICTIVE_COLUMNS",
     "SUMMARY_COLUMNS",
     "Posterior",
     "identification_verdict",
@@ -59,10 +61,28 @@ SUMMARY_COLUMNS = [
     "ess_tail",
     "r_hat",
 ]
+#: Columns of :meth:`Posterior.prior_predictive`.
+PREDICTIVE_COLUMNS = [
+    "body",
+    "quantity",
+    "source",
+    "estimate",
+    "se",
+    "prior_low",
+    "prior_median",
+    "prior_high",
+    "lower_tail",
+    "tail_probability",
+    "conflict",
+]
 
 
 def identification_verdict(ratio: float) -> str:
-    """Who decides a parameter: ``data`` (posterior SD < 0.3 prior SD), ``prior`` (> 0.7), or both."""
+    """The plain split of an SD ratio: ``data`` (< 0.3), ``prior`` (> 0.7), or both.
+
+    The population layer's hyperparameters read it; a body's verdict, with its margin against
+    Monte Carlo noise, is :func:`inertiafit.posterior.pins.verdict`.
+    """
     if ratio < 0.3:
         return "data"
     if ratio > 0.7:
@@ -84,6 +104,7 @@ class Posterior:
     def __init__(self, tree: xr.DataTree) -> None:
         self.tree = tree
         self._cache: dict[tuple, pd.DataFrame] = {}  # tables are read-only views of the tree
+        self._lines: list[str] = []  # the prior-data conflicts' warnings, with their table
         self.bodies = tuple(str(b) for b in np.asarray(tree["posterior"]["body"]).tolist())
 
     # -- access ---------------------------------------------------------------------------
@@ -182,19 +203,26 @@ class Posterior:
         return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
 
     def identification(self) -> pd.DataFrame:
-        """Who decides each parameter: SD ratio, the prior's share and the sources that pin it.
+        """Who decides each quantity: one verdict, the numbers behind it, the prior-data check.
 
-        Columns: ``posterior_sd``, ``prior_sd`` and their ``sd_ratio`` (near 0: the posterior is
-        much narrower than the prior; near 1: as wide), ``identified_by`` (its verdict, see
-        :func:`identification_verdict`); ``prior_share``, ``d log(posterior SD) / d log(prior
-        scale)`` of the body's prior (1: the prior alone sets the width, 0: the data do; see
-        :mod:`inertiafit.posterior.pins`); ``calibration_share``, the same for the torque gain's
-        prior (``nan`` without one); ``psense_prior`` and ``psense_likelihood``, the
-        power-scaling sensitivities of ``arviz_stats.psense`` (the prior's is ``nan`` for a
-        box, which power-scaling leaves unchanged); ``pinned_by``, ``prior``, the sources
-        (``data``, ``weighed mass``, ``balance point``, ``second mounting``) or both
-        (``... + prior``) from the prior share; and ``minimum_mass``, the bound
-        ``(M_g/g)^2 / I`` at the posterior medians.
+        Columns: ``posterior_sd``, ``prior_sd`` (of the prior's exact draws,
+        :func:`~inertiafit.posterior.conflict.prior_draws`) and their ``sd_ratio`` (near 0: the
+        posterior is much narrower than the prior; near 1: as wide) with its Monte Carlo SE
+        ``sd_ratio_se``; ``identified_by``, the verdict (``data``, ``data + prior``,
+        ``prior``: :func:`~inertiafit.posterior.pins.verdict` of the SD ratio, with a margin
+        so that other seeds give the same); ``prior_share``, ``d log(posterior SD) / d
+        log(prior scale)`` of the body's prior (1: the prior alone sets the width, 0: the data
+        do; see :mod:`inertiafit.posterior.pins`), with its Monte Carlo SE ``prior_share_se``;
+        ``calibration_share``, the same for the torque gain's prior (``nan`` without one);
+        ``psense_prior`` and ``psense_likelihood``, the power-scaling sensitivities of
+        ``arviz_stats.psense`` (the prior's is ``nan`` for a box, which power-scaling leaves
+        unchanged); ``pinned_by``, the same verdict with the sources named (``data``,
+        ``weighed mass``, ``balance point``, ``second mounting``, ``... + prior``, the
+        calibration prior's part); ``minimum_mass``, the bound ``(M_g/g)^2 / I`` at the
+        posterior medians; ``prior_predictive_p``, the two-sided prior-predictive tail
+        probability of the quantity's measurement (``nan`` where nothing measures it;
+        :meth:`prior_predictive`) and ``prior_data_conflict``, whether it is below
+        :data:`~inertiafit.posterior.conflict.CONFLICT_TAIL`.
         """
         if ("identification",) not in self._cache:
             self._cache[("identification",)] = self._identification()
@@ -209,22 +237,35 @@ class Posterior:
         gain_draws = (
             np.asarray(post_group["torque_gain"].values) if "torque_gain" in post_group else None
         )
+        checked = self._checked()
         for body in self.bodies:
             i_med = float(np.median(self.draws(body, "inertia")))
             mg_med = float(np.median(self.draws(body, "gravity_moment")))
             draws = {p: self.draws(body, p) for p in REPORTED}
             share = pins.prior_share(draws, specs[body])
+            share_se = self._share_se(draws, specs[body])
             gain = pins.prior_share(draws, None, torque_gain=gain_draws, torque_gain_sd=gain_sd)
+            gain_se = (
+                self._gain_se(draws, gain_draws, gain_sd)
+                if gain_draws is not None
+                else dict.fromkeys(REPORTED, math.nan)
+            )
             sens = self._sensitivities(body, specs[body])
             sources = pins.body_sources(self.tree, body)
+            exact = conflict.prior_draws(specs[body], g)
             for p in REPORTED:
                 post = float(draws[p].std())
-                prior = float(self.draws(body, p, "prior").std())
+                prior = float(exact[p].std())
                 ratio = post / prior
-                verdict = identification_verdict(ratio)
+                ratio_se = pins.batch_se(lambda x, s=prior: float(x.std()) / s, [draws[p]])
+                who = pins.verdict(ratio, ratio_se)
+                calibration = (
+                    pins.verdict(gain[p], gain_se[p]) if math.isfinite(gain[p]) else "data"
+                )
                 counted = pins.counted_sources(
                     sources, p, {s: sens.get((s, p), 1.0) for s in sources}
                 )
+                p_value = checked.get((body, p), math.nan)
                 rows.append(
                     {
                         "body": body,
@@ -232,16 +273,102 @@ class Posterior:
                         "posterior_sd": post,
                         "prior_sd": prior,
                         "sd_ratio": ratio,
-                        "identified_by": verdict,
+                        "sd_ratio_se": ratio_se,
+                        "identified_by": who,
                         "prior_share": share[p],
+                        "prior_share_se": share_se[p],
                         "calibration_share": gain[p],
                         "psense_prior": sens.get(("prior", p), np.nan),
                         "psense_likelihood": sens.get(("likelihood", p), np.nan),
-                        "pinned_by": pins.pinned_by(share[p], counted, verdict, gain[p]),
+                        "pinned_by": pins.pinned_by(who, counted, calibration),
                         "minimum_mass": (mg_med / g) ** 2 / i_med,
+                        "prior_predictive_p": p_value,
+                        "prior_data_conflict": bool(p_value < conflict.CONFLICT_TAIL),
                     }
                 )
         return pd.DataFrame(rows)
+
+    @staticmethod
+    def _share_se(draws: dict[str, np.ndarray], spec: dict) -> dict[str, float]:
+        """Monte Carlo SE of each quantity's prior share (batch means)."""
+        names = list(draws)
+
+        def statistic(*arrays):
+            share = pins.prior_share(dict(zip(names, arrays, strict=True)), spec)
+            return [share[n] for n in names]
+
+        se = pins.batch_se(statistic, [draws[n] for n in names])
+        return {n: float(v) for n, v in zip(names, se, strict=True)}
+
+    @staticmethod
+    def _gain_se(draws: dict[str, np.ndarray], gain: np.ndarray, sd: float) -> dict[str, float]:
+        """Monte Carlo SE of each quantity's calibration share (batch means)."""
+        names = list(draws)
+
+        def statistic(t, *arrays):
+            share = pins.prior_share(
+                dict(zip(names, arrays, strict=True)), None, torque_gain=t, torque_gain_sd=sd
+            )
+            return [share[n] for n in names]
+
+        se = pins.batch_se(statistic, [gain, *(draws[n] for n in names)])
+        return {n: float(v) for n, v in zip(names, se, strict=True)}
+
+    def prior_predictive(self) -> pd.DataFrame:
+        """Each measured quantity of each body against its prior predictive (prior-data conflict).
+
+        A row per check of :func:`~inertiafit.posterior.conflict.prior_data_checks`: ``body``
+        (bodies measured only together are joined by ``+``), ``quantity`` (``inertia``,
+        ``gravity_moment``, a weighed ``mass``, a balance point's ``com_distance``),
+        ``source``, the data's own ``estimate`` and its ``se``, the prior's central 95 %
+        (``prior_low``, ``prior_median``, ``prior_high``), ``lower_tail`` ``P(Y <=
+        estimate)``, the two-sided ``tail_probability`` and ``conflict`` (below
+        :data:`~inertiafit.posterior.conflict.CONFLICT_TAIL`). It reads the prior and the
+        evidence, not the draws: the same for every sampler seed.
+        """
+        if ("prior_predictive",) not in self._cache:
+            checks = conflict.prior_data_checks(self.tree)
+            self._cache[("prior_predictive",)] = pd.DataFrame(
+                [
+                    {
+                        "body": c.body,
+                        "quantity": c.quantity,
+                        "source": c.source,
+                        "estimate": c.estimate,
+                        "se": c.se,
+                        "prior_low": c.prior_low,
+                        "prior_median": c.prior_median,
+                        "prior_high": c.prior_high,
+                        "lower_tail": c.lower_tail,
+                        "tail_probability": c.p,
+                        "conflict": c.conflict,
+                    }
+                    for c in checks
+                ],
+                columns=PREDICTIVE_COLUMNS,
+            )
+            self._lines = [c.line() for c in checks if c.conflict]
+        return self._cache[("prior_predictive",)].copy()
+
+    def conflict_warnings(self) -> list[str]:
+        """One line per quantity in prior-data conflict (names the body and the quantity).
+
+        :func:`~inertiafit.inference.fit.fit_body` issues each as a
+        :class:`~inertiafit.errors.PriorDataConflictWarning`; a study's lines are in its
+        result's ``warnings``, and ``inertiafit run`` and ``fit`` print them.
+        """
+        self.prior_predictive()
+        return list(self._lines)
+
+    def _checked(self) -> dict[tuple[str, str], float]:
+        """The smallest tail probability of each (body, quantity) a check covers."""
+        out: dict[tuple[str, str], float] = {}
+        table = self.prior_predictive()
+        for r in table.itertuples(index=False):
+            for body in str(r.body).split("+"):
+                key = (body, str(r.quantity))
+                out[key] = min(out.get(key, math.inf), float(r.tail_probability))
+        return out
 
     def _sensitivities(self, body: str, specs: dict) -> dict[tuple[str, str], float]:
         """Psense of the body's quantities: to the prior, the whole likelihood, each source.
@@ -293,19 +420,30 @@ class Posterior:
     def what_pins_what(self) -> dict[str, str]:
         """One line per body naming the information that pins each of its quantities.
 
-        Built from :meth:`identification` (``pinned_by``, ``prior_share``) and the sources the
-        body has; e.g. ``"attachment: I and M_g pinned by the data; m, x and rho decided by the
-        prior within the range the data allow (prior share 0.95-1.10) - weigh it, ..."``.
+        Built from :meth:`identification` (``pinned_by``, ``prior_share``), the sources the
+        body has and its prior-data conflicts; e.g. ``"attachment: I and M_g pinned by the
+        data; m, x and rho by the data and the prior together (prior share 0.95-1.10) - weigh
+        it, ..."``. A living body is not told to weigh or remount it.
         """
         ident = self.identification()
-        return {
-            body: pins.pins_line(
+        living = pins.living_bodies(self.tree)
+        out = {}
+        for body in self.bodies:
+            rows = ident[ident.body == body]
+            conflicts = [
+                pins.SHORT[str(p)]
+                for p, c in zip(rows["parameter"], rows["prior_data_conflict"], strict=True)
+                if c
+            ]
+            out[body] = pins.pins_line(
                 body,
-                ident[ident.body == body].to_dict("records"),
+                rows.to_dict("records"),
                 pins.body_sources(self.tree, body),
+                living=body in living,
+                conflicts=conflicts,
+                measured=pins.measured_quantities(self.tree, body),
             )
-            for body in self.bodies
-        }
+        return out
 
     def write_summary(self, path: str | Path, hdi_prob: float = 0.95) -> Path:
         """Write :meth:`summary` as CSV with fixed formatting (same draws → same bytes)."""

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 __all__ = [
     "correlation_text",
     "html_table",
+    "predictive_text",
     "share_text",
     "table_rows",
     "text_report",
@@ -68,6 +69,28 @@ def share_text(value: float) -> str:
     if not math.isfinite(value):
         return ""
     return f"{0.0 if abs(value) < 0.005 else value:.2f}"
+
+
+def predictive_text(post: Posterior) -> str:
+    """One line: each measured quantity's prior-predictive tail probability, conflicts marked.
+
+    Empty when nothing is measured (:meth:`Posterior.prior_predictive`).
+    """
+    from inertiafit.posterior.conflict import CONFLICT_TAIL
+
+    table = post.prior_predictive()
+    if not len(table):
+        return ""
+    parts: dict[str, list[str]] = {}
+    for r in table.itertuples(index=False):
+        mark = " (conflict)" if r.conflict else ""
+        p = "< 1e-6" if r.tail_probability < 1e-6 else f"{r.tail_probability:.2g}"
+        parts.setdefault(str(r.body), []).append(f"{pins.SHORT[str(r.quantity)]} {p}{mark}")
+    return (
+        "Prior-data check (two-sided prior-predictive tail probability of what the data "
+        f"measure; below {CONFLICT_TAIL:g} the prior and the data conflict): "
+        + "; ".join(f"{body} {', '.join(v)}" for body, v in parts.items())
+    )
 
 
 def correlation_text(post: Posterior) -> list[str]:
@@ -140,12 +163,11 @@ def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
     for body in post.bodies:
         mmin = float(ident.loc[ident.body == body, "minimum_mass"].iloc[0])
         lines.append(measured_line(post.tree, body, mmin))
-    lines.append(
-        "What pins what. prior share = d log(posterior SD) / d log(prior scale): 1 when the "
-        "prior alone sets a quantity's width, 0 when the data do (values a little outside 0-1 "
-        "are Monte Carlo noise):"
-    )
+    lines.append(f"What pins what. {pins.VERDICT_NOTE}. {pins.SHARE_NOTE}:")
     lines += [f"  {line}" for line in post.what_pins_what().values()]
+    checked = predictive_text(post)
+    if checked:
+        lines.append(checked)
     lines += correlation_text(post)
     lines.append(post.calibration_note())
     counts = trial_counts(post)
@@ -195,6 +217,7 @@ def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
     )
     status = "converged" if post.converged else "<b>not converged</b>"
     pins = "".join(f"<li>{html.escape(line)}</li>" for line in post.what_pins_what().values())
+    pins += "".join(f"<li><b>{html.escape(line)}</b></li>" for line in post.conflict_warnings())
     corr = "".join(f"<li>{html.escape(line)}</li>" for line in correlation_text(post))
     counts = trial_counts(post)
     trials = "" if counts is None else f"<p>{html.escape(counts)}</p>"

@@ -38,6 +38,27 @@ parameter is read from ``psense`` of each source's log-likelihood terms (sensiti
 :data:`PSENSE_THRESHOLD`); ``data`` is always named except for the parameter an extra source
 measures directly (``m`` of a weighed mass, ``x`` of a balance point), since the others follow
 from ``m x`` and ``I`` as well. When none stands out all are named together.
+
+The verdict
+-----------
+Who decides a quantity is said once, by :func:`verdict`, and every output reads it: the
+identification table's ``identified_by`` (the body's prior against the rest) and ``pinned_by``
+(the same with the sources named and the calibration prior's part), the text, the HTML and the
+identification figures' titles. It reads the SD ratio ``r = posterior SD / prior SD`` (the
+prior's SD from :func:`inertiafit.posterior.conflict.prior_draws`, exact to 0.3 %): ``data``
+below :data:`DATA_DECIDES`, ``prior`` above :data:`PRIOR_DECIDES`, both between — with a band
+of half-width ``max(VERDICT_MARGIN, 3 x its Monte Carlo SE)`` about each split inside which the
+verdict names both (``data + prior``), which is true on either side of the split. The ratio is
+the statistic because its Monte Carlo error is small (about 1 % of it; the SE from batch
+means, :func:`batch_se`); the prior's share moves by 0.05-0.1 between seeds, and a verdict read
+from it flipped between runs of the same data. The calibration prior's part is read from its
+share with the same rule.
+
+A share outside 0-1 beyond its Monte Carlo error (``prior_share_se``) is not noise: above 1,
+narrowing the prior narrows the quantity faster than the prior (a box whose edges cut the curve
+of constant ``m x`` and ``I``, or a prior the data pull against); below 0, narrowing the prior
+widens it. Far outside, with a prior-data conflict (:mod:`inertiafit.posterior.conflict`), the
+data contradict the prior and narrowing the prior moves the posterior rather than narrows it.
 """
 
 from __future__ import annotations
@@ -55,16 +76,24 @@ from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.physics import PARAMETERS
 
 __all__ = [
+    "BATCHES",
+    "DATA_DECIDES",
     "DIRECT",
     "PRIOR_DECIDES",
     "PRIOR_SCALE_STEP",
     "PSENSE_THRESHOLD",
+    "SHARE_NOTE",
     "SHORT",
+    "VERDICT_MARGIN",
+    "VERDICT_NOTE",
+    "batch_se",
     "body_sources",
     "correlation_table",
     "counted_sources",
     "gain_scaling_log_weights",
+    "living_bodies",
     "measured_quantities",
+    "parameter_spec",
     "pinned_by",
     "pins_line",
     "prior_scaling_log_weights",
@@ -72,13 +101,35 @@ __all__ = [
     "prior_specs",
     "sensitivity",
     "source_terms",
+    "verdict",
 ]
 
 #: Relative step by which the prior's scale is shrunk for :func:`prior_share`.
 PRIOR_SCALE_STEP = 0.1
-#: Prior share at or above which the prior decides a quantity; at or below ``1 -`` it, the
-#: other sources do (the same 0.3/0.7 split as ``identified_by``).
+#: The splits of :func:`verdict`: at or below ``DATA_DECIDES`` (of the SD ratio, or of the
+#: calibration prior's share) the data decide, at or above ``PRIOR_DECIDES`` the prior.
+DATA_DECIDES = 0.3
 PRIOR_DECIDES = 0.7
+#: Least half-width of the band about each split inside which the verdict names both.
+VERDICT_MARGIN = 0.05
+#: Batches of draws behind the Monte Carlo SEs of :func:`batch_se`.
+BATCHES = 8
+#: What the verdict is, in one sentence (text, report.html).
+VERDICT_NOTE = (
+    "'identified by' compares each quantity's posterior SD with its prior's: data below 0.3, "
+    "prior above 0.7, data + prior between - and within 0.05 (or 3 Monte Carlo SEs) of either "
+    "split, so that runs of the same data with other seeds give the same verdict"
+)
+#: What the prior share means, and what a value outside 0-1 says (text, report.html).
+SHARE_NOTE = (
+    "prior share = d log(posterior SD) / d log(prior scale): 1 when the prior alone sets a "
+    "quantity's width, 0 when the data do; estimated by reweighting the draws (its Monte Carlo "
+    "SE is the column prior_share_se of identification.csv). Beyond that error a share above 1 "
+    "means narrowing the prior narrows the quantity faster than the prior (a box whose edges "
+    "cut the curve of constant m·x and I, or a prior the data pull against), one below 0 that "
+    "it widens it; far outside 0-1 with a prior-data conflict, the data contradict the prior "
+    "and narrowing it moves the posterior rather than narrows it - not Monte Carlo noise"
+)
 #: psense sensitivity above which a source counts (Kallioinen et al.'s 0.05).
 PSENSE_THRESHOLD = 0.05
 #: Short names of the quantities in sentences.
@@ -91,13 +142,49 @@ SHORT = {
 }
 
 
+def parameter_spec(lower: float, upper: float, distribution: Mapping[str, Any]) -> dict:
+    """One parameter's prior as a scaling rule (the values of :func:`prior_specs`).
+
+    ``lower``, ``upper`` are its support (SI units), ``distribution`` the prior's entry for it
+    (``kind`` and its numbers, as :class:`~inertiafit.inference.priors.Prior` stores it; empty
+    for a uniform box).
+    """
+    kind = distribution.get("kind", "uniform")
+    if kind == "lognormal":
+        return {
+            "log": True,
+            "center": math.log(distribution["median"]),
+            "scale": float(distribution["sd_log"]),
+            "gaussian": True,
+            "lower": math.log(lower),
+            "upper": math.log(upper),
+        }
+    if kind in ("normal", "truncated-normal"):
+        return {
+            "log": False,
+            "center": float(distribution["mean"]),
+            "scale": float(distribution["sd"]),
+            "gaussian": True,
+            "lower": lower,
+            "upper": upper,
+        }
+    return {
+        "log": False,
+        "center": 0.5 * (lower + upper),
+        "scale": math.nan,
+        "gaussian": False,
+        "lower": lower,
+        "upper": upper,
+    }
+
+
 def prior_specs(tree: xr.DataTree) -> dict[str, dict[str, dict[str, Any]]]:
     """Each body's prior per parameter, read from the tree, as a scaling rule.
 
     Returns ``{body: {parameter: spec}}`` with ``spec`` keys ``log`` (bool: scaled in
     ``log``), ``center``, ``scale`` (the SD, ``nan`` for a box), ``gaussian`` (bool),
-    ``lower``, ``upper`` (the support, in the scaled coordinate). Bodies without a stored
-    ``distribution`` (older trees) are boxes.
+    ``lower``, ``upper`` (the support, in the scaled coordinate): :func:`parameter_spec`.
+    Bodies without a stored ``distribution`` (older trees) are boxes.
     """
     cd = tree["constant_data"]
     try:
@@ -107,41 +194,14 @@ def prior_specs(tree: xr.DataTree) -> dict[str, dict[str, dict[str, Any]]]:
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for body in np.asarray(tree["posterior"]["body"]).tolist():
         dist = (stored.get(str(body)) or {}).get("distribution") or {}
-        specs = {}
-        for p in PARAMETERS:
-            lo = float(cd["lower"].sel(body=body, parameter=p))
-            hi = float(cd["upper"].sel(body=body, parameter=p))
-            d = dist.get(p) or {}
-            kind = d.get("kind", "uniform")
-            if kind == "lognormal":
-                spec = {
-                    "log": True,
-                    "center": math.log(d["median"]),
-                    "scale": float(d["sd_log"]),
-                    "gaussian": True,
-                    "lower": math.log(lo),
-                    "upper": math.log(hi),
-                }
-            elif kind in ("normal", "truncated-normal"):
-                spec = {
-                    "log": False,
-                    "center": float(d["mean"]),
-                    "scale": float(d["sd"]),
-                    "gaussian": True,
-                    "lower": lo,
-                    "upper": hi,
-                }
-            else:
-                spec = {
-                    "log": False,
-                    "center": 0.5 * (lo + hi),
-                    "scale": math.nan,
-                    "gaussian": False,
-                    "lower": lo,
-                    "upper": hi,
-                }
-            specs[p] = spec
-        out[str(body)] = specs
+        out[str(body)] = {
+            p: parameter_spec(
+                float(cd["lower"].sel(body=body, parameter=p)),
+                float(cd["upper"].sel(body=body, parameter=p)),
+                dist.get(p) or {},
+            )
+            for p in PARAMETERS
+        }
     return out
 
 
@@ -351,32 +411,75 @@ def counted_sources(
     return counted or list(sources)
 
 
-def pinned_by(
-    share: float,
-    sources: Sequence[str],
-    fallback: str = "data",
-    calibration_share: float = math.nan,
-) -> str:
-    """Who pins a quantity, from the prior's share (and the calibration prior's).
+def batch_se(statistic, arrays: Sequence[np.ndarray], batches: int = BATCHES) -> Any:
+    """Monte Carlo SE of ``statistic(*arrays)`` from batch means along the draws.
 
-    ``prior`` (share >= :data:`PRIOR_DECIDES`), ``calibration prior`` (the torque gain's prior,
-    likewise), or the sources (``data + weighed mass``) with ``+ prior`` / ``+ calibration
-    prior`` for a share between ``1 - PRIOR_DECIDES`` and ``PRIOR_DECIDES``. ``sources`` are the
-    non-prior sources that count for it; ``fallback`` (the SD-ratio verdict) is used when the
-    share is ``nan``.
+    ``arrays`` are ``(chain, draw)`` draws of one fit; each of ``batches`` runs of consecutive
+    draws (every chain) gives the statistic once (a number, or an array of them), and the SE
+    is their SD over ``sqrt(batches)``: a float, or an array of the statistic's shape.
+    ``nan`` with fewer than two draws per batch, and where a batch's value is not finite.
     """
-    if not math.isfinite(share):
-        return fallback
-    if share >= PRIOR_DECIDES:
+    arrays = [np.asarray(a) for a in arrays]
+    size = arrays[0].shape[-1] // batches
+    if size < 2:
+        shape = np.shape(statistic(*arrays))
+        return math.nan if shape == () else np.full(shape, math.nan)
+    values = np.asarray(
+        [statistic(*(a[..., k * size : (k + 1) * size] for a in arrays)) for k in range(batches)],
+        float,
+    )
+    with np.errstate(invalid="ignore"):
+        se = values.std(axis=0, ddof=1) / math.sqrt(batches)
+    se = np.where(np.all(np.isfinite(values), axis=0), se, math.nan)
+    return float(se) if se.ndim == 0 else se
+
+
+def verdict(value: float, se: float = 0.0) -> str:
+    """Who decides, from a 0 (data) to 1 (prior) scale: ``data``, ``data + prior`` or ``prior``.
+
+    ``value`` is the SD ratio (posterior over prior) or the calibration prior's share, ``se``
+    its Monte Carlo SE. ``data`` at or below :data:`DATA_DECIDES` and ``prior`` at or above
+    :data:`PRIOR_DECIDES` by more than ``max(VERDICT_MARGIN, 3 se)``; ``data + prior``
+    otherwise (module docstring). ``nan``: ``data`` (nothing to say the prior decides).
+    """
+    if not math.isfinite(value):
+        return "data"
+    margin = max(VERDICT_MARGIN, 3 * se) if math.isfinite(se) else VERDICT_MARGIN
+    if value <= DATA_DECIDES - margin:
+        return "data"
+    if value >= PRIOR_DECIDES + margin:
         return "prior"
-    if math.isfinite(calibration_share) and calibration_share >= PRIOR_DECIDES:
+    return "data + prior"
+
+
+def pinned_by(who: str, sources: Sequence[str], calibration: str = "data") -> str:
+    """The verdict with its sources: who pins a quantity.
+
+    ``who`` is the body's prior's :func:`verdict`, ``calibration`` the torque-gain prior's
+    (from its share). ``prior`` when the body's prior decides, ``calibration prior`` when the
+    gain's does, else the sources that count (``data + weighed mass``) with ``+ prior`` /
+    ``+ calibration prior`` where they decide together.
+    """
+    if who == "prior":
+        return "prior"
+    if calibration == "prior":
         return "calibration prior"
     named = list(sources) or ["data"]
-    if share > 1 - PRIOR_DECIDES:
+    if who == "data + prior":
         named.append("prior")
-    if math.isfinite(calibration_share) and calibration_share > 1 - PRIOR_DECIDES:
+    if calibration == "data + prior":
         named.append("calibration prior")
     return " + ".join(named)
+
+
+def living_bodies(tree: xr.DataTree) -> set[str]:
+    """The living bodies of a study's tree (its ``living`` group's joint parameters' body)."""
+    if "living" not in tree.children or "parameters" not in tree["living"].children:
+        return set()
+    table = tree["living"]["parameters"].to_dataset()
+    if "body" not in table:
+        return set()
+    return {str(b) for b in np.asarray(table["body"].values).tolist() if str(b)}
 
 
 def _join(names: Sequence[str]) -> str:
@@ -397,13 +500,26 @@ _PRIORS = {
 }
 
 
-def pins_line(body: str, rows: Sequence[Mapping[str, Any]], sources: Sequence[str]) -> str:
+def pins_line(
+    body: str,
+    rows: Sequence[Mapping[str, Any]],
+    sources: Sequence[str],
+    *,
+    living: bool = False,
+    conflicts: Sequence[str] = (),
+    measured: Sequence[str] = (),
+) -> str:
     """One sentence per body: which information pins each of its quantities.
 
     ``rows`` are the body's identification rows (``parameter``, ``pinned_by``, ``prior_share``,
-    ``sd_ratio``, optionally ``calibration_share``) in table order; ``sources`` what the body
-    has (:func:`body_sources`).
+    ``sd_ratio``, optionally ``prior_share_se``, ``calibration_share``) in table order;
+    ``sources`` what the body has (:func:`body_sources`); ``living``: a living segment (it can
+    be neither weighed nor remounted, and is not told to); ``conflicts``: the short names of
+    its quantities in prior-data conflict (:mod:`inertiafit.posterior.conflict`), which
+    explain shares outside 0-1; ``measured``: which of ``gravity_moment`` and ``inertia`` the
+    data measure (:func:`measured_quantities`; both: the data fix the body's curve).
     """
+    curve = {"gravity_moment", "inertia"} <= set(measured)
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault(str(r["pinned_by"]), []).append(r)
@@ -422,23 +538,41 @@ def pins_line(body: str, rows: Sequence[Mapping[str, Any]], sources: Sequence[st
             if values:
                 label = "prior share" if c == "prior" else "calibration share"
                 shares.append(f"{label} {_share_range(values)}")
+        if "prior" in priors and conflicts and shares:
+            shares[0] += (
+                ", read with the prior-data conflict: beyond 0-1 it is the data contradicting "
+                "the prior, not Monte Carlo noise"
+            )
         share = f" ({'; '.join(shares)})" if shares else ""
         if not priors:
             parts.append(f"{names} pinned by the {who}")
         elif not others:
-            narrowed = priors == ["prior"] and all(
-                float(r["sd_ratio"]) < PRIOR_DECIDES for r in members
-            )
-            where = " within the range the data allow" if narrowed else ""
-            parts.append(f"{names} decided by {_PRIORS[priors[0]][0]}{where}{share}")
+            parts.append(f"{names} decided by {_PRIORS[priors[0]][0]}{share}")
         else:
             together = _join(["the " + " + ".join(others), *(_PRIORS[c][0] for c in priors)])
-            parts.append(f"{names} by {together} together{share}")
+            on_curve = (
+                curve
+                and others == ["data"]
+                and priors == ["prior"]
+                and all(r["parameter"] in PARAMETERS for r in members)
+            )
+            where = (
+                ": the data fix the curve of m·x and I, the prior where on it" if on_curve else ""
+            )
+            parts.append(f"{names} by {together} together{share}{where}")
         if "prior" in priors:
             left += [str(r["parameter"]) for r in members if r["parameter"] in PARAMETERS]
     line = f"{body}: " + "; ".join(parts)
+    if conflicts:
+        line += f"; prior-data conflict in {_join(list(conflicts))}"
     if left and list(sources) == ["data"]:
-        if any(p in left for p in MEASURED_QUANTITIES):
+        if living and any(p in left for p in MEASURED_QUANTITIES):
+            line += (
+                " - a living segment can be neither weighed nor remounted: only a narrower "
+                "prior (medical imaging, or a population of subjects: inertiafit population) "
+                "would pin them"
+            )
+        elif any(p in left for p in MEASURED_QUANTITIES):
             line += (
                 " - weigh it, find its balance point or mount it at a second distance from "
                 "the axis to pin them"

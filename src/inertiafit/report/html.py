@@ -22,6 +22,7 @@ from typing import Any
 import pandas as pd
 
 from inertiafit.formatting import number, plural
+from inertiafit.posterior.pins import SHARE_NOTE, VERDICT_NOTE
 from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.report.methods import methods_html, prior_table
 from inertiafit.report.result import Result
@@ -41,6 +42,7 @@ __all__ = [
     "Details",
     "Fragment",
     "Heading",
+    "conflict_items",
     "figure_png",
     "figure_png_base64",
     "prior_items",
@@ -357,9 +359,7 @@ def study_report(
             [
                 (
                     f"Median and {100 * hdi_prob:g}% highest-density interval of every body's "
-                    "parameters from one joint posterior over all conditions. 'identified by' "
-                    "compares the posterior's SD with the prior's: data < 0.3 <= data + prior "
-                    "<= 0.7 < prior."
+                    f"parameters from one joint posterior over all conditions. {VERDICT_NOTE}."
                 ),
                 summary_display(summary),
                 post.report(hdi_prob).splitlines()[0] + ".",
@@ -381,6 +381,7 @@ def study_report(
                 ),
                 PRIOR_SHARE_NOTE,
                 *post.what_pins_what().values(),
+                *conflict_items(post),
                 identification_display(result.identification()),
                 "Posterior correlations of m, x and rho:",
                 correlation_display(post.correlations()),
@@ -538,14 +539,25 @@ def study_report(
 
 #: What the "prior share" column means, where report.html shows it.
 PRIOR_SHARE_NOTE = (
-    "'prior share' = d log(posterior SD) / d log(prior scale): how much of a quantity's "
-    "posterior width follows from its prior. Narrow every prior by a small factor: a share of 1 "
-    "means the posterior narrows by the same factor (the prior alone sets the width), 0 means it "
-    "does not move (the data set it). It is estimated by reweighting the draws, so values a "
-    "little outside 0-1 (-0.05, 1.1) are Monte Carlo noise around those ends. The box is shrunk "
-    "about its centre; power-scaling, as arviz-stats psense does, leaves a box unchanged, so "
-    "'psense prior' is blank for a box."
+    f"{SHARE_NOTE}. The box is shrunk about its centre; power-scaling, as arviz-stats psense "
+    "does, leaves a box unchanged, so 'psense prior' is blank for a box."
 )
+
+
+def conflict_items(post) -> list[str]:
+    """The prior-data check in the "What pins what" section: each conflict as a warning.
+
+    One ``warn:`` line per quantity in conflict
+    (:meth:`~inertiafit.posterior.Posterior.conflict_warnings`), else one line saying the
+    check passed.
+    """
+    from inertiafit.posterior.display import predictive_text
+
+    lines = post.conflict_warnings()
+    if lines:
+        return ["warn:" + line for line in lines]
+    checked = predictive_text(post)
+    return [checked] if checked else []
 
 
 def prior_items(result: Result) -> list:

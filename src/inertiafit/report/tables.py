@@ -171,10 +171,11 @@ def _two(value: float) -> str:
 
 
 def identification_display(identification: pd.DataFrame) -> pd.DataFrame:
-    """Who pins what: SD ratio, the prior's share, psense and the sources, per quantity.
+    """Who pins what: SD ratio, the prior's share, psense, the sources and the prior-data check.
 
     From :meth:`~inertiafit.posterior.Posterior.identification`; blanks where a value does not
-    apply (psense of a box prior, the calibration share without a torque gain).
+    apply (psense of a box prior, the calibration share without a torque gain, the
+    prior-predictive tail probability of a quantity nothing measures).
     """
     frame = identification
 
@@ -191,8 +192,24 @@ def identification_display(identification: pd.DataFrame) -> pd.DataFrame:
             "psense prior": [_two(v) for v in col("psense_prior")],
             "psense likelihood": [_two(v) for v in col("psense_likelihood")],
             "pinned by": col("pinned_by").fillna("").astype(str).to_numpy(),
+            "prior-predictive p": [
+                _tail(v, c)
+                for v, c in zip(
+                    col("prior_predictive_p"),
+                    col("prior_data_conflict").fillna(False),
+                    strict=True,
+                )
+            ],
         }
     )
+
+
+def _tail(p: float, conflict: bool) -> str:
+    """A prior-predictive tail probability, two significant figures; ``conflict`` marked."""
+    if not math.isfinite(p):
+        return ""
+    text = "< 1e-6" if p < 1e-6 else f"{p:.2g}"
+    return f"{text} (prior-data conflict)" if conflict else text
 
 
 def correlation_display(correlations: pd.DataFrame) -> pd.DataFrame:
