@@ -13,6 +13,7 @@ docs/method.md, "Sampler".
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 
@@ -336,22 +337,75 @@ class IndependenceMove:
         """Nothing to tune: the proposal is fixed (emcee API)."""
 
 
+@functools.cache
+def _snooker_class() -> type:
+    """The DE-snooker move class (defined on first use: emcee is imported lazily)."""
+    import emcee
+
+    class SnookerMove(emcee.moves.RedBlueMove):
+        """DE-snooker (ter Braak and Vrugt 2008), vectorised, on emcee's two half-ensembles.
+
+        For each walker ``x`` of the active half, three distinct walkers ``z, z1, z2`` of the
+        other half; with ``e`` the unit vector from ``z`` to ``x``, the proposal is
+        ``x + gamma e e'(z1 - z2)`` (the difference of ``z1`` and ``z2`` projected on the line
+        through ``x`` and ``z``), accepted with the extra factor ``(|x* - z| / |x - z|)^(d-1)``.
+
+        Replaces ``emcee.moves.DESnookerMove`` (emcee 3.1.6), which does not leave the target
+        invariant: it scales the step by ``|x - z|`` (``u = delta / sqrt(|delta|)``, so ``u u'``
+        is ``|delta| e e'``) and takes half the exponent of the factor; alone on a standard
+        normal it samples a variance of 0.89 in 2 dimensions and 0.74 in 4 (this move: 1.00).
+        It also loops over the walkers in Python and splits the ensemble in four (four density
+        calls per step): a tenth of the steps took a third of a fit's sampling time.
+        """
+
+        def __init__(self, gamma: float = 1.7) -> None:
+            self.gamma = gamma
+            super().__init__(nsplits=2)
+
+        def get_proposal(self, s, c, random):
+            c = np.concatenate(c, axis=0)
+            ns, ndim = s.shape
+            # three distinct walkers of the other half per walker: a random permutation's first
+            # three (emcee's RandomState: rand)
+            pick = np.argsort(random.rand(ns, len(c)), axis=1)[:, :3]
+            z, z1, z2 = c[pick[:, 0]], c[pick[:, 1]], c[pick[:, 2]]
+            delta = s - z
+            norm = np.linalg.norm(delta, axis=1)
+            # x on top of z (a stuck ensemble): no direction, the walker stays (factor 0)
+            moves = norm > 0
+            safe = np.where(moves, norm, 1.0)
+            e = delta / safe[:, None]
+            step = np.where(moves, self.gamma * np.einsum("ij,ij->i", e, z1 - z2), 0.0)
+            q = s + step[:, None] * e
+            with np.errstate(divide="ignore"):  # q on top of z: log 0, never accepted
+                factor = (ndim - 1.0) * (np.log(np.linalg.norm(q - z, axis=1)) - np.log(safe))
+            return q, np.where(moves, factor, 0.0)
+
+    return SnookerMove
+
+
+def _snooker_move():
+    """A new DE-snooker move for emcee (see ``_snooker_class``)."""
+    return _snooker_class()()
+
+
 def emcee_moves(kind: str, mode: np.ndarray, cov: np.ndarray, df: float = 5.0) -> list:
     """The emcee ``moves`` of a joint sampler named in :data:`MOVES`.
 
     ``"independent"``: 70 % :class:`IndependenceMove` around ``(mode, cov)``, 20 %
     differential evolution, 10 % DE-snooker; ``"de"``: 80 % DE, 20 % DE-snooker;
-    ``"stretch"``: emcee's default stretch move.
+    ``"stretch"``: emcee's default stretch move. The DE-snooker is this module's own (see
+    ``_snooker_class``), not emcee's.
     """
     import emcee
 
     if kind == "de":
-        return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+        return [(emcee.moves.DEMove(), 0.8), (_snooker_move(), 0.2)]
     if kind == "independent":
         return [
             (IndependenceMove(mode, cov, df=df), 0.7),
             (emcee.moves.DEMove(), 0.2),
-            (emcee.moves.DESnookerMove(), 0.1),
+            (_snooker_move(), 0.1),
         ]
     if kind != "stretch":
         raise ValueError(f"emcee_moves: unknown moves {kind!r} (expected one of {MOVES})")
