@@ -91,6 +91,77 @@ def best_of(func: Callable[[], object], repeats: int) -> tuple[float, list[float
     return min(times), times, result
 
 
+#: Exit status of ``benchmarks/run.py`` (and of a benchmark run alone) when a guard fails: 0
+#: when every guard passes, 1 for a crash (Python's own), 2 for a bad command line (argparse).
+GUARD_FAILED = 3
+
+
+def load_average() -> tuple[float, float, float] | None:
+    """The 1, 5 and 15 minute load averages (``uptime``), or None where the OS has none."""
+    try:
+        return os.getloadavg()
+    except OSError:
+        return None
+
+
+def load_text() -> str:
+    load = load_average()
+    return "n/a" if load is None else ", ".join(f"{v:.2f}" for v in load)
+
+
+def interleaved(
+    sides: dict[str, Callable[[int], object]], rounds: int
+) -> dict[str, list[tuple[float, object]]]:
+    """Wall time and result of each side, called in turn (A B A B ...) for ``rounds`` rounds.
+
+    Each function gets the round's index (a seed, say). Alternating puts a busy moment of a
+    shared machine on both sides alike; a side's figure is then the median over the rounds
+    (:func:`spread`), and a ratio the median of the rounds' ratios (:func:`paired_ratios`).
+    """
+    out: dict[str, list[tuple[float, object]]] = {name: [] for name in sides}
+    for k in range(rounds):
+        for name, func in sides.items():
+            t0 = time.perf_counter()
+            result = func(k)
+            out[name].append((time.perf_counter() - t0, result))
+    return out
+
+
+def median(values: Sequence[float]) -> float:
+    import statistics
+
+    return float(statistics.median(values))
+
+
+def spread(values: Sequence[float]) -> dict[str, float]:
+    """Median, smallest and largest of ``values`` (the spread printed beside a median)."""
+    return {"median": median(values), "low": float(min(values)), "high": float(max(values))}
+
+
+def paired_ratios(top: Sequence[float], bottom: Sequence[float]) -> list[float]:
+    """``top[k] / bottom[k]`` per round: each ratio from two measurements made side by side."""
+    return [a / b for a, b in zip(top, bottom, strict=True)]
+
+
+def spread_text(s: dict[str, float], fmt: str = ".2f", unit: str = "") -> str:
+    """``median (low-high)``, e.g. ``3.41x (3.10-3.92)``."""
+    return f"{s['median']:{fmt}}{unit} ({s['low']:{fmt}}-{s['high']:{fmt}})"
+
+
+def guard(target: str, value: float, limit: float, *, below: bool, shown: str) -> dict:
+    """A guarded figure: PASS when ``value <= limit`` (``below``) or ``>= limit``, else FAIL.
+
+    ``benchmarks/run.py`` (and a benchmark run alone) exits with :data:`GUARD_FAILED` when any
+    guard fails; other targets (``status`` "met" / "NOT met") are reported only.
+    """
+    ok = value <= limit if below else value >= limit
+    return {"target": target, "value": shown, "status": "PASS" if ok else "FAIL", "guard": True}
+
+
+def failed_guards(targets: Sequence[dict]) -> list[dict]:
+    return [t for t in targets if t.get("guard") and t["status"] != "PASS"]
+
+
 def accuracy(draws: dict, ref) -> tuple[float, float]:
     """Largest |mean error| in posterior SDs and largest |SD ratio - 1| over the quantities."""
     return ref.agreement({q: draws[q] for q in QUANTITIES})
@@ -159,6 +230,12 @@ def standalone(
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(result, fh, indent=2)
+    failed = failed_guards(result.get("targets", []))
+    for t in result.get("targets", []):
+        if t.get("guard"):
+            print(f"{t['status']}: {t['target']}: {t['value']}")
+    if failed:
+        sys.exit(GUARD_FAILED)
 
 
 def hdi(draws, prob: float = 0.95) -> tuple[float, float]:

@@ -1,9 +1,9 @@
 """Every benchmark of inertiafit in one run: tables with ratios measured in the same run.
 
-1. sampler      inertiafit's sampler vs plain emcee (ESS/s, tau, accuracy vs quadrature)
+1. sampler      inertiafit's sampler vs plain emcee (guards: ESS/s >= 5x, tau <= 3 steps)
 2. peer_pymc    PyMC's NUTS on the same model (optional: skipped when PyMC is missing)
-3. processing   process_study vs reading the CSVs + sosfiltfilt (target <= 2x)
-4. end_to_end   `inertiafit run` vs the cold-import floor (target <= 4x, < 400 MB)
+3. processing   process_study vs reading the CSVs + sosfiltfilt (guard <= 5x)
+4. end_to_end   `inertiafit run` vs the cold-import floor (guards <= 4x, < 400 MB)
 5. scaling      K segments in one study; a batch of small studies
 6. batch        run-many: a batch serially vs a local Dask cluster of 2 workers (target >= 1.6x)
 7. sbc          simulation-based calibration: rank histograms, coverage, negative controls
@@ -15,6 +15,12 @@ Run:  .venv/bin/python benchmarks/run.py [--quick] [--json FILE] [--only NAME ..
       [--pymc-python PATH]   (another venv's python with PyMC and inertiafit installed)
 Each benchmark also runs alone: .venv/bin/python benchmarks/NAME.py [--quick] [--json FILE].
 Results are described in docs/benchmarks.md.
+
+Guards (sampler, processing, end_to_end) print PASS or FAIL: each is a ratio against a baseline
+timed in turn with it in the same run (A B A B ..., five rounds), judged on the median of the
+rounds' ratios. Exit status: 0 when every guard of the benchmarks run passed, 3 when one
+failed (the tables are all printed first), 1 when a benchmark crashed, 2 for a bad command
+line. Other targets ("met" / "NOT met") are reported only.
 """
 
 from __future__ import annotations
@@ -87,6 +93,7 @@ def main() -> None:
         + f"; BLAS {info['blas']}; OPENBLAS_CORETYPE={info['OPENBLAS_CORETYPE']}"
     )
     print(f"mode: {'quick' if args.quick else 'full'}; inertiafit from {info['inertiafit_path']}")
+    print(f"load average (1, 5, 15 min) at the start: {common.load_text()}")
     results = {}
     t_all = time.perf_counter()
     for name, func in BENCHMARKS.items():
@@ -99,6 +106,7 @@ def main() -> None:
         else:
             res = func(quick=args.quick)
         res["seconds"] = time.perf_counter() - t0
+        res["load_average_after"] = common.load_text()
         if name == "peer_pymc" and res["rows"] and "sampler" in results:
             ours = {r["posterior"]: r["inertiafit_ess_per_s"] for r in results["sampler"]["rows"]}
             for r in res["rows"]:
@@ -108,7 +116,10 @@ def main() -> None:
                 f"{r['posterior']} {r['inertiafit_over_pymc']:.0f}x" for r in res["rows"]
             )
         results[name] = res
-        print(f"\n== {res['title']}  [{res['seconds']:.0f} s]")
+        print(
+            f"\n== {res['title']}  [{res['seconds']:.0f} s; load average after: "
+            f"{res['load_average_after']}]"
+        )
         print(res["table"])
         sys.stdout.flush()
     targets = [
@@ -127,8 +138,15 @@ def main() -> None:
                 targets,
             )
         )
+    failed = common.failed_guards(targets)
+    guards = [t for t in targets if t.get("guard")]
+    if guards:
+        print(
+            f"\nguards: {len(guards) - len(failed)} of {len(guards)} PASS"
+            + (f"; FAIL: {'; '.join(t['target'] for t in failed)}" if failed else "")
+        )
     total = time.perf_counter() - t_all
-    print(f"\nall benchmarks: {total:.0f} s")
+    print(f"\nall benchmarks: {total:.0f} s; load average at the end: {common.load_text()}")
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(
@@ -137,6 +155,7 @@ def main() -> None:
                     "quick": args.quick,
                     "seconds": total,
                     "targets": targets,
+                    "guards_failed": len(failed),
                     "results": results,
                 },
                 fh,
@@ -144,6 +163,8 @@ def main() -> None:
                 default=str,
             )
         print(f"results written to {args.json}")
+    if failed:
+        sys.exit(common.GUARD_FAILED)
 
 
 if __name__ == "__main__":
