@@ -1,21 +1,17 @@
 """docs/tutorials/population.md runs as printed, and what it shows holds (issue 33, item 6).
 
-The tutorial's ``python`` and ``sh`` blocks are run in order, literally, in an empty folder:
-the Python blocks in one namespace (as one session would), each line of a shell block as a
-command with this environment's ``bin`` first on ``PATH``. It simulates a cohort of 20 subjects,
+The tutorial's ``python`` and ``sh`` blocks are run in order, literally, in an empty folder, by
+the runner every tutorial's test shares (``tests/tutorials.py``): the Python blocks in one
+namespace (as one session would), each shell block as a script with this environment's ``bin``
+first on ``PATH``. It simulates a cohort of 20 subjects,
 fits them with ``run-many``, pools them with ``population``, predicts a new subject and fits
 the next study under the population's prior. The checks compare the outputs with the truth the
 simulation wrote (``truth.toml``) and with de Leva's tables.
 """
 
-import contextlib
-import io
 import json
 import math
 import os
-import re
-import subprocess
-import sys
 import tomllib
 from pathlib import Path
 
@@ -23,6 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import once_per_run
+from tutorials import TUTORIALS, blocks, run_tutorial
 
 from inertiafit import open_posterior
 from inertiafit.inference.anthropometric import segment_values
@@ -39,50 +36,15 @@ pytestmark = [
     ),
 ]
 
-TUTORIAL = Path(__file__).parents[1] / "docs" / "tutorials" / "population.md"
-FENCE = re.compile(r"^```(\w+)\n(.*?)^```", re.MULTILINE | re.DOTALL)
+TUTORIAL = TUTORIALS / "population.md"
 SUBJECTS = [f"S{i:02d}" for i in range(1, 21)]
 QUANTITIES = ["mass", "com_distance", "radius_of_gyration", "inertia", "gravity_moment"]
 
 
-def _blocks(language: str | None = None) -> list[tuple[str, str]]:
-    text = TUTORIAL.read_text(encoding="utf-8")
-    return [(lang, code) for lang, code in FENCE.findall(text) if language in (None, lang)]
-
-
 def _run_tutorial(folder: Path) -> None:
     """Every python and sh block of the tutorial, in order, in ``folder``; logs beside."""
-    env = dict(os.environ)
-    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
-    # one BLAS thread per process, as in the suite's own processes (conftest.py)
-    env.update(OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    namespace: dict = {}
-    log = []
-    with contextlib.chdir(folder):
-        for k, (lang, code) in enumerate(_blocks()):
-            if lang == "python":
-                said = io.StringIO()
-                with contextlib.redirect_stdout(said):
-                    compiled = compile(code, f"population.md, block {k}", "exec")
-                    exec(compiled, namespace)
-                log.append(said.getvalue())
-            elif lang == "sh":
-                for line in code.splitlines():
-                    if not line.strip() or line.lstrip().startswith("#"):
-                        continue
-                    done = subprocess.run(
-                        line,
-                        shell=True,
-                        env=env,
-                        capture_output=True,
-                        text=True,
-                        timeout=1800,
-                        check=False,
-                    )
-                    assert done.returncode == 0, f"{line}\n{done.stdout}\n{done.stderr}"
-                    log.append(f"$ {line}\n{done.stdout}{done.stderr}")
-    (folder / "tutorial.log").write_text("\n".join(log), encoding="utf-8")
-    namespace["prediction"].to_csv(folder / "prediction.csv", index=False)
+    session = run_tutorial(TUTORIAL, folder, timeout=1800)
+    session.namespace["prediction"].to_csv(folder / "prediction.csv", index=False)
 
 
 @pytest.fixture(scope="session")
@@ -114,7 +76,7 @@ def _cohort(folder: Path) -> pd.DataFrame:
 
 def test_the_tutorial_s_manifests_are_the_ones_written(tutorial):
     # the TOML the page shows is what the simulation wrote (the comment line aside)
-    first, second = (code for _, code in _blocks("toml"))
+    first, second = (block.code for block in blocks(TUTORIAL, "toml"))
     for block, manifest in ((first, "cohort/S01/study.toml"), (second, "S21/study.toml")):
         written = (tutorial / manifest).read_text(encoding="utf-8").splitlines()
         for line in block.splitlines():
