@@ -117,7 +117,7 @@ def stage_profile(manifest: Path) -> list[dict]:
     # functions, so a function and the one it wraps are not counted twice. A name that is no
     # longer called shows 0 s: check the table after moving a function.
     wanted = {
-        "read (Study.read: CSV -> Trial)": ("manifest.py", ("read",)),
+        "read (TrialSpec.read: CSV -> Trial)": ("sections/trials.py", ("read",)),
         "  pandas read_csv + column checks": ("tables.py", ("load_table",)),
         "  make_trial (xarray Dataset, checks)": ("trial.py", ("make_trial",)),
         "    compare_velocity": ("trial.py", ("compare_velocity",)),
