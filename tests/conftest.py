@@ -36,6 +36,11 @@ from pathlib import Path
 
 import pytest
 
+# Commands the tests start (``inertiafit ...``, the tutorials' shell blocks) write UTF-8, which
+# the tests read, also where the locale is ASCII and Python's UTF-8 mode is off (CI:
+# ``PYTHONUTF8=0 LC_ALL=C``). What such a terminal shows instead: test_cli.py.
+os.environ["PYTHONIOENCODING"] = "utf-8"
+
 
 @pytest.fixture
 def no_figures(monkeypatch):

@@ -238,7 +238,12 @@ def test_import_inertiafit_loads_no_heavy_module():
     import subprocess
 
     out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        encoding="utf-8",
+        check=True,
+        cwd=ROOT,
     ).stdout
     assert out.strip() == "[]"
 

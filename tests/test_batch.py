@@ -183,6 +183,7 @@ def test_a_study_folder_is_what_run_writes_also_without_dask(serial, studies, tm
         check=False,
         capture_output=True,
         text=True,
+        encoding="utf-8",
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().splitlines()[-1] == "[]"
@@ -461,6 +462,6 @@ def test_importing_the_command_line_and_batch_does_not_import_dask():
         "print(sorted(m for m in ('dask', 'distributed') if m in sys.modules))"
     )
     out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        [sys.executable, "-c", code], capture_output=True, text=True, encoding="utf-8", check=True
     ).stdout
     assert out.strip() == "[]"

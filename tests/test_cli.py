@@ -169,6 +169,7 @@ def test_command_is_installed_and_quiet_when_not_a_terminal(tmp_path):
         [sys.executable, "-m", "inertiafit.cli", "priors"],
         capture_output=True,
         text=True,
+        encoding="utf-8",
         check=True,
     )
     assert "biodex-elbow-attachment" in res.stdout
@@ -210,3 +211,23 @@ def test_library_argument_names_are_shown_as_options(library, shown):
     from inertiafit.cli import _as_options, build_parser
 
     assert _as_options(library, build_parser()).startswith(shown)
+
+
+def test_an_ascii_terminal_gets_escapes_not_a_traceback(monkeypatch):
+    """The reports print ``·`` and ``ρ``; a terminal that cannot encode them (an ASCII locale,
+    Python's UTF-8 mode off) gets their escapes. Negative control: the same stream unfixed
+    raises UnicodeEncodeError, as ``run`` did in CI after writing its results."""
+    import io
+
+    from inertiafit.cli import _speak_any_terminal
+
+    for errors in ("strict", "surrogateescape"):  # Python's default and the C locale's
+        raw = io.BytesIO()
+        stream = io.TextIOWrapper(raw, encoding="ascii", errors=errors)
+        with pytest.raises(UnicodeEncodeError):
+            print("m·x, ρ", file=stream, flush=True)
+        monkeypatch.setattr(sys, "stdout", stream)
+        monkeypatch.setattr(sys, "stderr", stream)
+        _speak_any_terminal()
+        print("m·x, ρ", file=stream, flush=True)
+        assert raw.getvalue().endswith(b"m\\xb7x, \\u03c1\n")

@@ -157,6 +157,7 @@ def test_a_scheduler_that_is_not_an_address_is_one_line_and_no_traceback(tmp_pat
         ],
         capture_output=True,
         text=True,
+        encoding="utf-8",
         timeout=120,
         check=False,
     )
@@ -373,6 +374,7 @@ def test_a_reader_that_goes_away_is_no_traceback():
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        encoding="utf-8",
     )
     assert proc.stdout is not None
     proc.stdout.close()

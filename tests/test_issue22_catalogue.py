@@ -229,6 +229,7 @@ def test_sigterm_leaves_no_staging_folder(tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        encoding="utf-8",
         env=_env(),
     ) as proc:
         assert proc.stdout is not None

@@ -163,6 +163,7 @@ def test_the_staging_folder_of_a_killed_run_is_removed_by_the_next_run(tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
+        encoding="utf-8",
         env=_env(),
     ) as proc:
         assert proc.stdout is not None

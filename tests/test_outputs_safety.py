@@ -661,6 +661,7 @@ def test_sigterm_mid_write_removes_the_staging_folder_and_the_lock(tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        encoding="utf-8",
         env=_env(),
     ) as proc:
         assert proc.stdout.readline() == "writing\n"
@@ -680,6 +681,7 @@ def test_sigterm_during_a_command_releases_its_lock(tmp_path):
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
+        encoding="utf-8",
         env=_env(),
     ) as proc:
         deadline = time.monotonic() + 30

@@ -177,6 +177,7 @@ def run_tutorial(tutorial: Path, folder: Path, *, timeout: float = 600) -> Sessi
                         env=env,
                         capture_output=True,
                         text=True,
+                        encoding="utf-8",
                         timeout=timeout,
                         check=False,
                     )

@@ -800,8 +800,23 @@ def _as_options(message: str, parser: argparse.ArgumentParser, command: str | No
     return " ".join(shown)
 
 
+def _speak_any_terminal() -> None:
+    r"""Let stdout and stderr write every character, whatever the terminal's encoding.
+
+    The reports print ``ρ``, ``±`` and ``·``; in an ASCII locale with Python's UTF-8 mode off
+    (``PYTHONUTF8=0 LC_ALL=C``, as some CI machines run) each such line raised
+    UnicodeEncodeError after the results were written. A character the terminal cannot
+    encode is printed as its escape (``\xb7``) instead.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None and stream.errors in {"strict", "surrogateescape"}:
+            reconfigure(errors="backslashreplace")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``inertiafit`` command."""
+    _speak_any_terminal()
     parser = build_parser()
     args = parser.parse_args(argv)
     handler: Callable[[argparse.Namespace], int] = args.handler

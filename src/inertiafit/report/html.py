@@ -65,7 +65,8 @@ th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: right; }
 th { background: #f4f4f4; } td:first-child, th:first-child { text-align: left; }
 td { white-space: nowrap; }
 .text { text-align: left; white-space: normal; overflow-wrap: break-word; }
-figure { margin: 1em 0; } img { max-width: 100%; height: auto; border: 1px solid #eee; }
+figure { margin: 1em 0; }
+img { max-width: 100%; height: auto; border: 1px solid #eee; box-sizing: border-box; }
 .note { color: #555; font-size: 0.9em; }
 pre { background: #f8f8f8; padding: 0.6em; white-space: pre-wrap; overflow-wrap: anywhere; }
 .warn { color: #a33; } details > summary { cursor: pointer; }
