@@ -31,6 +31,7 @@ on ``(-1, 1)``. emcee samples ``(a, b, log sigma, atanh r)``.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -46,6 +47,7 @@ __all__ = [
     "DEFAULT_COVARIATES",
     "LOG_COVARIATES",
     "MIN_ESS",
+    "Cells",
     "Design",
     "Hyperprior",
     "PopulationFit",
@@ -68,11 +70,12 @@ DEFAULT_COVARIATES: dict[str, tuple[str, ...]] = {
 }
 #: Covariates that enter by their logarithm (positive sizes); any other is centred and scaled.
 LOG_COVARIATES = frozenset({"body_mass", "segment_length", "height"})
-#: Importance-weight ESS below which a subject's draws cannot represent the population.
-#: The hyperparameters' density is zero where any subject's ESS is below it: as a scatter
-#: shrinks toward zero the mean of the weights is carried by the one draw nearest the
-#: regression and grows without bound, where the exact likelihood stays finite (measured:
-#: five subjects' population ran to ESS 1 for one subject with every stored draw).
+#: Importance-weight ESS below which a subject's draws cannot represent the population (its
+#: pooled draws are then a few of its own; :func:`log_likelihood` can cut the density there,
+#: since as a scatter shrinks toward zero the mean over single draws is carried by the one
+#: nearest the regression and grows without bound, where the exact likelihood stays finite:
+#: measured, five subjects' population ran to ESS 1 for one subject with every stored draw;
+#: :class:`Cells` has no such limit).
 MIN_ESS = 30.0
 _LOG_2PI = math.log(2 * math.pi)
 _PAIRS = ((0, 1), (0, 2), (1, 2))
@@ -225,9 +228,6 @@ class SubjectDraws:
         The subject's covariate values (own units).
     support : ndarray, shape (3, 2)
         The interim prior's bounds of ``m, x, rho`` (SI units).
-    stored : int
-        How many draws these were stratified from (one per stratum of equal count along
-        the draws' first principal axis, in that order); 0 when they are all of them.
     """
 
     name: str
@@ -235,7 +235,6 @@ class SubjectDraws:
     log_interim: np.ndarray
     covariates: dict[str, float]
     support: np.ndarray
-    stored: int = 0
 
     @property
     def offset(self) -> np.ndarray:
@@ -341,13 +340,9 @@ class Features:
 
     def __init__(self, subjects: Sequence[SubjectDraws]) -> None:
         n = min(len(s.log_theta) for s in subjects)
-        if any(s.stored and len(s.log_theta) > n for s in subjects):
-            raise ValueError("Features: stratified draws cut in rank order (thin all alike)")
         self.n_draws = n
         self.theta = np.stack([s.log_theta[:n] for s in subjects])  # (N, S, 3)
         self.offset = np.stack([s.offset[:n] for s in subjects])  # (N, S)
-        #: each subject's share of its stored draws used, where they were stratified (else 0)
-        self.share = np.array([n / s.stored if s.stored > n else 0.0 for s in subjects])
         t = self.theta
         # [t_1^2, t_2^2, t_3^2, 2 t_1 t_2, 2 t_1 t_3, 2 t_2 t_3, t_1, t_2, t_3, 1]: the
         # Mahalanobis distance is a (subject, walker) row times this column (one batched
@@ -384,22 +379,6 @@ class Features:
         out += self.offset[:, None, :]
         return out
 
-    def log_variance(self, weights: np.ndarray) -> np.ndarray:
-        """Variance ``(N, W)`` of each subject's estimated log mean weight.
-
-        ``weights`` ``(N, W, S)``, normalised over the draws. The delta method on the log of a
-        mean of ``S`` weights gives ``1/ESS - 1/S`` for independent draws. Stratified draws
-        (one per stratum, adjacent strata adjacent) take the collapsed-strata estimate,
-        ``sum over pairs (w_a - w_b)^2``, plus the stored draws' own variance, the
-        independent one scaled by the share of them used.
-        """
-        ess = 1.0 / np.sum(weights * weights, axis=-1)
-        plain = 1.0 / ess - 1.0 / weights.shape[-1]
-        half = weights.shape[-1] // 2
-        pairs = weights[..., 1 : 2 * half : 2] - weights[..., 0 : 2 * half : 2]
-        strata = np.sum(pairs * pairs, axis=-1) + plain * self.share[:, None]
-        return np.where(self.share[:, None] > 0, strata, plain)
-
 
 def log_likelihood(
     features: Features,
@@ -429,6 +408,92 @@ def log_likelihood(
             value[np.any(ess < min_ess, axis=0)] = -np.inf
         out[i : i + chunk] = value
     return out
+
+
+#: Cells each subject's draws are summarised in (:class:`Cells`), and the fewest draws a cell
+#: is made of (fewer draws, fewer cells).
+CELLS = 32
+CELL_DRAWS = 16
+
+
+def _inverse_3x3(a: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """Cofactors ``(c00, c01, c02, c11, c12, c22)`` and determinants of symmetric 3x3 ``a``.
+
+    The inverse is the cofactors over the determinant; written out, since ``np.linalg.inv``
+    of many tiny matrices costs more than the arithmetic.
+    """
+    a00, a01, a02 = a[..., 0, 0], a[..., 0, 1], a[..., 0, 2]
+    a11, a12, a22 = a[..., 1, 1], a[..., 1, 2], a[..., 2, 2]
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    return (c00, c01, c02, c11, c12, c22), a00 * c00 + a01 * c01 + a02 * c02
+
+
+class Cells:
+    """Each subject's draws summarised as Gaussian cells along its ridge, for the density.
+
+    A subject's draws are ranked along their first principal axis and cut into ``k`` cells
+    of equal count; each cell is a Gaussian (the mean and covariance of its draws) carrying
+    its share of the draws, and the weight's draw-dependent part (``-log(m x rho) - log pi``)
+    is taken as linear in ``log theta`` within it (least squares over its draws). The mean
+    weight of a cell under a lognormal population is then exact for that Gaussian,
+    ``N(m_k + C_k g_k; mu, Sigma + C_k)`` times ``exp(o_k + g_k' C_k g_k / 2)``, so it stays
+    finite and smooth as the population narrows, where the mean over single draws is carried
+    by the one draw nearest the regression (:data:`MIN_ESS`), at ``k`` terms instead of one
+    per draw. On one subject's 3000 draws it matched the likelihood integrated directly over
+    populations from 20 % wide to 3 % narrow within 0.07 (one cell: off by over 0.4;
+    ``tests/test_population.py``).
+    """
+
+    def __init__(self, subjects: Sequence[SubjectDraws], k: int = CELLS) -> None:
+        size = min(len(s.log_theta) for s in subjects)
+        k = max(1, min(k, size // CELL_DRAWS))
+        means, covs, consts = [], [], []
+        for s in subjects:
+            t, off = s.log_theta, s.offset
+            centred = t - t.mean(axis=0)
+            axis = np.linalg.svd(centred, full_matrices=False)[2][0]
+            order = np.argsort(centred @ axis, kind="stable")
+            edges = np.linspace(0, len(t), k + 1).astype(int)
+            for a, b in itertools.pairwise(edges):
+                u, o = t[order[a:b]], off[order[a:b]]
+                m = u.mean(axis=0)
+                d = u - m
+                cov = d.T @ d / (len(u) - 1)
+                beta = np.linalg.lstsq(np.column_stack([np.ones(len(u)), d]), o, rcond=None)[0]
+                g = beta[1:]
+                means.append(m + cov @ g)
+                covs.append(cov)
+                consts.append(math.log((b - a) / len(t)) + beta[0] + 0.5 * g @ cov @ g)
+        n = len(subjects)
+        self.k = k
+        self.means = np.array(means).reshape(n, k, 3)
+        self.covs = np.array(covs).reshape(n, k, 3, 3)
+        self.consts = np.array(consts).reshape(n, k)
+
+    def log_weights(self, design: Design, matrices, z: np.ndarray) -> np.ndarray:
+        """Each cell's log mean weight ``(W, N, k)`` under each walker's population."""
+        z = np.atleast_2d(z)
+        _, log_sigma, t = split_vector(design, z)
+        chol = np.exp(log_sigma)[:, :, None] * correlation_cholesky(np.tanh(t))
+        sigma = chol @ np.swapaxes(chol, 1, 2)  # (W, 3, 3)
+        mu = population_means(design, matrices, z)  # (W, N, 3)
+        (c00, c01, c02, c11, c12, c22), det = _inverse_3x3(sigma[:, None, None] + self.covs)
+        d = self.means - mu[:, :, None, :]  # (W, N, k, 3)
+        d0, d1, d2 = d[..., 0], d[..., 1], d[..., 2]
+        quad = c00 * d0 * d0 + c11 * d1 * d1 + c22 * d2 * d2
+        quad += 2.0 * (c01 * d0 * d1 + c02 * d0 * d2 + c12 * d1 * d2)
+        return self.consts - 0.5 * (quad / det + np.log(det) + 3 * _LOG_2PI)
+
+    def log_likelihood(self, design: Design, matrices, z: np.ndarray) -> np.ndarray:
+        """The population's log likelihood ``(W,)``: sum over subjects of log mean weight."""
+        lw = self.log_weights(design, matrices, z)
+        top = lw.max(axis=-1, keepdims=True)
+        return (np.log(np.exp(lw - top).sum(axis=-1)) + top[..., 0]).sum(axis=-1)
 
 
 def box_mass(
