@@ -87,14 +87,14 @@ def test_an_anthropometric_prior_cites_its_table(disk):
 
 def test_report_shows_priors_methods_and_folded_provenance(disk, tmp_path):
     page = study_report(tmp_path / "report.html", disk, {}, 0.95).read_text(encoding="utf-8")
-    priors = page[page.index("<h2>Priors</h2>") : page.index("<h2>Comparison")]
+    priors = page[page.index("<h2 id='priors'>Priors</h2>") : page.index("<h2 id='comparison")]
     assert "<h3>disk-3kg</h3>" in priors
     assert "source: Son et al., Determination of inertial parameters" in priors
     assert priors.count(">uniform</td>") == 3
-    assert "<h2>Methods</h2>" in page
+    assert "<h2 id='methods'>Methods</h2>" in page
     assert "(Foreman-Mackey et al. (2013))" in page  # [@key] shown as a citation
     assert "[@" not in page
-    inputs = page[page.index("<h2>Inputs and provenance</h2>") :]
+    inputs = page[page.index("<h2 id='inputs-and-provenance'>Inputs and provenance</h2>") :]
     assert inputs.index("<details><summary>Fitted from reported numbers") < inputs.index("seed")
     assert PRIOR_SHARE_NOTE.replace("'", "&#x27;") in page
     assert "body(ies)" not in page

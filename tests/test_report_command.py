@@ -80,7 +80,7 @@ def missing_figures(folder, records, ext="png"):
 
 def test_every_registered_figure_is_written_and_shown_in_report_html(study_out, tmp_path):
     records = figure_records(load_result(study_out))
-    assert len(records) == 12
+    assert len(records) == 13  # intervals, 3 corner, 2 identification, 3 trials, 4 diagnostics
     assert len({r.stem for r in records}) == len(records)
     assert missing_figures(study_out, records) == []
     page = (study_out / "report.html").read_text(encoding="utf-8")
@@ -270,9 +270,10 @@ def test_report_redraws_from_saved_outputs_only(study_out, tmp_path, monkeypatch
 
 def test_report_without_png_files_still_embeds_every_figure(study_out, tmp_path, monkeypatch):
     # figures are drawn and let go one at a time; report.html gets a PNG of each all the same
-    # (four of the study's twelve figures, one of each kind, keep the test short)
+    # (four of the twelve figures after the intervals figure, one of each kind, keep the test
+    # short)
     every = figures_module.figure_records
-    monkeypatch.setattr(outputs_module, "figure_records", lambda result: every(result)[::3])
+    monkeypatch.setattr(outputs_module, "figure_records", lambda result: every(result)[1::3])
     study_out = _copy(study_out, tmp_path)
     assert main(["report", str(study_out), "--formats", "pdf"]) == 0
     html = (study_out / "report.html").read_text(encoding="utf-8")
@@ -366,9 +367,10 @@ def test_run_writes_methods_with_the_protocol_as_run(study_out):
 
 def test_report_html_reads_at_a_glance(study_out):
     page = (study_out / "report.html").read_text(encoding="utf-8")
-    trials = page[page.index("<h2>Trials</h2>") : page.index("<h2>Speed effect</h2>")]
-    # one table per condition and kind of trial, units in the headers
-    assert re.findall(r"<h3>([^<]*)</h3>", trials) == [
+    # one table per condition and kind of trial (folded, after the Methods), units in the
+    # headers
+    trials = page[page.index("<h2 id='trial-tables'>") : page.index("<h2 id='inputs-and")]
+    assert re.findall(r"<summary>([^<]*) \(\d+ trials?\)</summary>", trials) == [
         "attachment: quasi-static trials",
         "attachment: fast trials",
         "attachment+weight: quasi-static trials",
@@ -378,16 +380,16 @@ def test_report_html_reads_at_a_glance(study_out):
     assert "M_g [N m] ± SE</th>" in trials
     assert "lag [ms] ± SE</th>" in trials
     assert trials.count("<tr>") == 4 + 2 + 12  # header rows + quasi-static + fast trials
-    effect = page[page.index("<h2>Speed effect</h2>") : page.index("<h2>Diagnostics</h2>")]
+    effect = page[page.index("<h2 id='speed-effect'>") : page.index("<h2 id='diagnostics'>")]
     assert "&lt;NA&gt;" not in effect
     assert ">nan<" not in effect
     assert "mean_difference" not in effect
     assert "p_tukey" not in effect
     assert effect.count("240 vs 300") == 2
     # provenance: one line, every file folded under it
-    inputs = page[page.index("<h2>Inputs and provenance</h2>") :]
+    inputs = page[page.index("<h2 id='inputs-and-provenance'>") :]
     assert inputs.startswith(
-        "<h2>Inputs and provenance</h2>\n<details><summary>14 trial files, the manifest and 2 "
+        "<h2 id='inputs-and-provenance'>Inputs and provenance</h2>\n<details><summary>14 trial files, the manifest and 2 "
         "priors"
     )
     assert inputs.index("</summary>") < inputs.index("<table>")

@@ -210,8 +210,8 @@ def test_skip_runs_the_study_to_the_end_with_its_inputs_on_record(
     assert observed.size == 5
 
     html = (out / "report.html").read_text(encoding="utf-8")
-    assert "<h2>Skipped trials</h2>" in html
-    assert html.index("Skipped trials") < html.index("<h2>Posterior</h2>")
+    assert "<h2 id='skipped-trials'>Skipped trials</h2>" in html
+    assert html.index("<h2 id='skipped-trials'>") < html.index("<h2 id='posterior'>")
     assert "1 of 8 trials could not be read or processed" in html
 
     provenance = json.loads(post.attrs["provenance"])
@@ -235,7 +235,7 @@ def test_skip_runs_the_study_to_the_end_with_its_inputs_on_record(
     (out / "report.html").unlink()
     assert main(["report", str(out), "--formats", "png"]) == 0
     redrawn = (out / "report.html").read_text(encoding="utf-8")
-    assert "<h2>Skipped trials</h2>" in redrawn
+    assert "<h2 id='skipped-trials'>Skipped trials</h2>" in redrawn
     assert all(digest in redrawn for digest in hashes)
 
     # a trials.csv written before the status column existed is read as every trial used,

@@ -24,6 +24,7 @@ __all__ = ["FIGURE_SECTIONS", "FigureRecord", "figure_records"]
 
 #: The sections of report.html that hold figures, in page order.
 FIGURE_SECTIONS = (
+    "Posterior",
     "Corner plots",
     "Identification curves",
     "Living joint",
@@ -95,6 +96,19 @@ def figure_records(result: Result) -> list[FigureRecord]:
     post = result.posterior
     records: list[FigureRecord] = []
     add = records.append
+    pct = f"{100 * result.hdi_prob:g}%"
+    add(
+        FigureRecord(
+            "intervals",
+            functools.partial(plots.plot_intervals, post, result.hdi_prob),
+            "Posterior",
+            f"Every body's m, x, rho, I and M_g: the posterior's {pct} HDI (dot: median) over "
+            f"the prior's central {pct} interval (grey), both divided by the prior's median on "
+            "a log axis; colour and marker say who decides each, as the identification table's "
+            "'identified by' does (blue: data; orange: data + prior; vermillion: prior); on the "
+            "right the posterior median and HDI in SI units",
+        )
+    )
     for body in post.bodies:
         add(
             FigureRecord(

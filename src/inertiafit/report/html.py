@@ -1,10 +1,12 @@
 """A self-contained ``report.html``: tables and figures embedded, readable without a network.
 
 :func:`write_report` writes any page of sections; :func:`study_report` lays out the page of a
-:class:`~inertiafit.report.result.Result` (posterior, what pins what, comparison, corner plots,
-identification curves, trials, speed effect, diagnostics, provenance): skipped trials, if any, come first,
-and "Inputs and provenance" lists every input file's SHA-256 and reader settings as stored in
-``posterior.nc``.
+:class:`~inertiafit.report.result.Result` with the answer first: a table of contents linking
+every section, then the posterior (its intervals figure, every body's quantities against their
+prior, and its table), what pins what, priors, comparison, corner plots, identification curves,
+trial figures, speed effect, diagnostics and methods; the long per-trial tables come last,
+folded, before "Inputs and provenance", which lists every input file's SHA-256 and reader
+settings as stored in ``posterior.nc``. Skipped trials, if any, come first.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ __all__ = [
     "Details",
     "Fragment",
     "Heading",
+    "anchors",
     "conflict_items",
     "figure_png",
     "figure_png_base64",
@@ -71,7 +74,14 @@ img { max-width: 100%; height: auto; border: 1px solid #eee; box-sizing: border-
 pre { background: #f8f8f8; padding: 0.6em; white-space: pre-wrap; overflow-wrap: anywhere; }
 .warn { color: #a33; } details > summary { cursor: pointer; }
 p.methods { max-width: 50em; line-height: 1.45; } ol.refs { font-size: 0.9em; }
+nav.toc { font-size: 0.9em; margin: 0.5em 0 1em; }
+nav.toc ol { display: flex; flex-wrap: wrap; gap: 0.2em 1.4em; list-style: none; padding: 0;
+  margin: 0.3em 0 0; }
 """
+
+
+#: The section of the per-trial tables, after the Methods (see :func:`study_report`).
+_TRIAL_TABLES = "Trial tables"
 
 
 class Heading(str):
@@ -233,6 +243,22 @@ def provenance_table(provenance: Mapping[str, Any]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["input", "file", "sha256", "status", "reader settings"])
 
 
+def anchors(headings: Sequence[str]) -> list[str]:
+    """A stable ``id`` for each heading: its words in lower case joined by ``-``, unique.
+
+    ``"What pins what"`` -> ``what-pins-what``; a heading met again gets ``-2``, ``-3``.
+    """
+    out: list[str] = []
+    for heading in headings:
+        base = re.sub(r"[^a-z0-9]+", "-", heading.lower()).strip("-") or "section"
+        name, k = base, 1
+        while name in out:
+            k += 1
+            name = f"{base}-{k}"
+        out.append(name)
+    return out
+
+
 def write_report(
     path: str | Path,
     *,
@@ -241,6 +267,7 @@ def write_report(
     notes: Mapping[str, object] | None = None,
     appendix: list | None = None,
     provenance: str | None = None,
+    contents: bool = False,
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -261,6 +288,9 @@ def write_report(
     provenance : str, optional
         The one line "Inputs and provenance" shows; ``notes`` and ``appendix`` are folded
         under it (``<details>``) and open on a click.
+    contents : bool
+        Give every section's heading an ``id`` (:func:`anchors`) and list them all, as links,
+        in a table of contents under the title.
 
     Items may also be a :class:`Heading` (``<h3>``), a :class:`Details` (a folded block of
     items) or a :class:`Fragment` (trusted HTML).
@@ -271,11 +301,28 @@ def write_report(
         f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
         f"<h1>{html.escape(title)}</h1>",
     ]
-    for heading, items in sections:
-        parts.append(f"<h2>{html.escape(heading)}</h2>")
+    headings = [heading for heading, _ in sections]
+    if notes or appendix:
+        headings.append("Inputs and provenance")
+    ids = anchors(headings) if contents else []
+
+    def h2(k: int) -> str:
+        where = f" id='{ids[k]}'" if contents else ""
+        return f"<h2{where}>{html.escape(headings[k])}</h2>"
+
+    if contents:
+        links = "".join(
+            f"<li><a href='#{a}'>{html.escape(h)}</a></li>"
+            for h, a in zip(headings, ids, strict=True)
+        )
+        parts.append(
+            f"<nav class='toc' id='contents'><strong>Contents</strong><ol>{links}</ol></nav>"
+        )
+    for k, (heading, items) in enumerate(sections):
+        parts.append(h2(k))
         parts.extend(_item_html(entry, heading) for entry in items)
     if notes or appendix:
-        parts.append("<h2>Inputs and provenance</h2>")
+        parts.append(h2(len(sections)))
         folded: list = []
         if notes:
             folded.append(
@@ -306,6 +353,10 @@ def study_report(
     records: Sequence[FigureRecord] | None = None,
 ) -> Path:
     """The self-contained ``report.html``: tables, embedded figures, diagnostics, provenance.
+
+    The page leads with the answer: its table of contents, then the "Posterior" section with
+    the intervals figure and the summary table; the per-trial tables are folded in the
+    section "Trial tables" after the Methods.
 
     ``figures`` holds the PNG of each figure by stem; ``records`` (default
     :func:`~inertiafit.report.figures.figure_records` of ``result``) says where each goes and
@@ -362,6 +413,7 @@ def study_report(
                     f"Median and {100 * hdi_prob:g}% highest-density interval of every body's "
                     f"parameters from one joint posterior over all conditions. {VERDICT_NOTE}."
                 ),
+                *figs("Posterior"),
                 summary_display(summary),
                 post.report(hdi_prob).splitlines()[0] + ".",
                 *(
@@ -434,10 +486,10 @@ def study_report(
                 ],
             )
         )
+    tables: list = []
     if len(result.trials):
-        tables: list = []
         for title, table in trial_tables(result.trials):
-            tables += [Heading(title), table]
+            tables.append(Details(f"{title} ({plural(len(table), 'trial')})", [table]))
         sections.append(
             (
                 "Trials",
@@ -453,8 +505,12 @@ def study_report(
                             )
                         ]
                     ),
-                    "Every trial as processed (trials.csv has every value at full precision).",
-                    *tables,
+                    Fragment(
+                        "<p class='note'>Every trial as processed: the tables of each "
+                        "condition and kind of trial are folded under "
+                        f"<a href='#{anchors([_TRIAL_TABLES])[0]}'>{_TRIAL_TABLES}</a>, after the "
+                        "Methods.</p>"
+                    ),
                 ],
             )
         )
@@ -498,6 +554,19 @@ def study_report(
             ],
         )
     )
+    if tables:
+        sections.append(
+            (
+                _TRIAL_TABLES,
+                [
+                    (
+                        "Every trial as processed, a table per condition and kind of trial "
+                        "(click to open; trials.csv has every value at full precision)."
+                    ),
+                    *tables,
+                ],
+            )
+        )
     others = [
         (r.caption, figures[r.stem]) for r in records if r.stem in figures and r.stem not in placed
     ]
@@ -535,6 +604,7 @@ def study_report(
         notes=notes,
         appendix=appendix,
         provenance=provenance_line(result, files),
+        contents=True,
     )
 
 

@@ -1,7 +1,8 @@
 """Figures of a study and of a posterior, sized for journal columns.
 
-One module per kind of figure: :mod:`~inertiafit.report.plots.trials` (fast trials, inertia by
-speed), :mod:`~inertiafit.report.plots.identification` (the identification curve),
+One module per kind of figure: :mod:`~inertiafit.report.plots.intervals` (every body's
+quantities against their prior, the report's first figure),
+:mod:`~inertiafit.report.plots.trials` (fast trials, inertia by speed), :mod:`~inertiafit.report.plots.identification` (the identification curve),
 :mod:`~inertiafit.report.plots.diagnostics` (traces, rank plots),
 :mod:`~inertiafit.report.plots.emg` (EMG envelopes against their thresholds),
 :mod:`~inertiafit.report.plots.living` (a living joint's passive curve, static fit and fast
@@ -35,6 +36,7 @@ from inertiafit.report.plots.corner import plot_joint_corner
 from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
 from inertiafit.report.plots.emg import plot_emg_envelopes
 from inertiafit.report.plots.identification import CURVE_PAIRS, plot_identification_curve
+from inertiafit.report.plots.intervals import VERDICT_STYLE, interval_table, plot_intervals
 from inertiafit.report.plots.living import (
     plot_living_fast_trials,
     plot_passive_curve,
@@ -51,15 +53,18 @@ __all__ = [
     "PRIOR_COLOUR",
     "SINGLE_COLUMN",
     "STYLE",
+    "VERDICT_STYLE",
     "axis_label",
     "check_formats",
     "corner_figure",
     "figure_width",
+    "interval_table",
     "new_figure",
     "plot_emg_envelopes",
     "plot_fast_trials",
     "plot_identification_curve",
     "plot_inertia_by_speed",
+    "plot_intervals",
     "plot_joint_corner",
     "plot_living_fast_trials",
     "plot_passive_curve",
