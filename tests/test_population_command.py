@@ -260,12 +260,21 @@ def test_a_new_study_starts_from_the_population(pooled, tmp_path):
         )
 
 
-def test_population_command_writes_its_outputs(cohort, tmp_path, capsys):
+def test_population_command_writes_its_outputs(cohort, tmp_path, capsys, monkeypatch):
+    """Also: a warning is said once, as a ``warning:`` line after the results (its threshold
+    set to 0 here, so that it fires), not in Python's form."""
+    monkeypatch.setattr(pooling, "MAX_LOGLIKE_VARIANCE", 0.0)
     out = tmp_path / "pop"
     code = main(["population", str(cohort["batch"]), "--out", str(out), "--seed", "3"])
     assert code == 0
-    text = capsys.readouterr().out
+    said = capsys.readouterr()
+    text = said.out
     assert "population of 'forearm': 5 subjects" in text
+    warned = [line for line in text.splitlines() if line.startswith("warning: ")]
+    noisy = [line for line in warned if "variance of the estimated log likelihood" in line]
+    assert len(noisy) == 1  # (with the short runs here, a convergence warning besides)
+    assert text.rindex("warning: ") > text.index("wrote ")
+    assert "InertiafitWarning" not in said.err
     for name in ("population.csv", "subjects.csv", "population.nc", "report.html"):
         assert (out / name).is_file(), name
     table = pd.read_csv(out / "population.csv")

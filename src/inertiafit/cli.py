@@ -16,6 +16,7 @@ import math
 import os
 import re
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import ClassVar
@@ -454,14 +455,20 @@ class _Population(_Command):
         bodies = None
         if args.bodies is not None:
             bodies = [b.strip() for b in args.bodies.split(",") if b.strip()]
-        run_population(
-            args.sources,
-            out=args.out,
-            seed=args.seed,
-            hdi_prob=args.hdi_prob,
-            bodies=bodies,
-            formats=args.formats,
-        )
+        # The library warns; the command says each warning once, in a line of its own after
+        # the results, as `run` does (not Python's file:line form with a line of source).
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            run_population(
+                args.sources,
+                out=args.out,
+                seed=args.seed,
+                hdi_prob=args.hdi_prob,
+                bodies=bodies,
+                formats=args.formats,
+            )
+        for w in caught:
+            print(f"warning: {w.message}")
         return 0
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import gc
 import multiprocessing
 import os
 import signal
@@ -72,7 +73,14 @@ def _draw(record: FigureRecord, folder: Path, formats: tuple[str, ...]) -> bytes
     if wanted:
         plots.save_figure(fig, folder / record.stem, wanted, dpi=DEFAULT_DPI)
     # Embed the PNG just written rather than drawing the figure once more.
-    return (folder / f"{record.stem}.png").read_bytes() if "png" in wanted else figure_png(fig)
+    png = (folder / f"{record.stem}.png").read_bytes() if "png" in wanted else figure_png(fig)
+    # A figure's artists refer to each other in cycles, which only the collector frees, and
+    # it ran too seldom: each 300-dpi figure's buffers stayed alive into the next (a study's
+    # twelve figures drawn in one process grew its memory from 303 to 390 MB; collected
+    # after each, it stays at 321 MB).
+    del fig
+    gc.collect()
+    return png
 
 
 def _draw_queued(index: int) -> bytes:
