@@ -1,5 +1,6 @@
 """report.html the way a reader meets it: rendered by headless Chromium."""
 
+import html
 import os
 import re
 import shutil
@@ -147,3 +148,46 @@ def test_study_report_screenshot_at_1280_px(study_report, tmp_path):
     columns = (img.max(-1) < 0.3).any(0)  # columns with text or lines
     assert not columns[:30].any()
     assert not columns[-30:].any()
+
+
+#: Measures where the table of contents and the intervals figure (the first ``<img>``, its alt
+#: text the intervals caption) sit as the page first opens: their boxes' top and bottom, in
+#: px from the window's top. Added to a copy of the page only.
+FIRST_SCREEN = """<script>window.addEventListener('load', function () {
+  var toc = document.querySelector('nav.toc'), img = document.images[0];
+  var t = toc.getBoundingClientRect(), f = img.getBoundingClientRect();
+  var out = [t.top, t.bottom, f.top, f.bottom, img.alt].join('|');
+  document.body.setAttribute('data-first-screen', out);
+});</script>"""
+
+
+def first_screen(report, tmp_path):
+    """TOC top and bottom, figure top and bottom (px), the figure's alt text: at 1280x900."""
+    page = tmp_path / "first-screen.html"
+    page.write_text(
+        report.read_text(encoding="utf-8").replace("</body>", FIRST_SCREEN + "</body>"),
+        encoding="utf-8",
+    )
+    dom = chromium(
+        "--window-size=1280,900",
+        "--virtual-time-budget=5000",
+        "--dump-dom",
+        page.as_uri(),
+        tmp_path=tmp_path,
+    ).stdout
+    found = re.search(r'data-first-screen="([^"]*)"', dom)
+    assert found, "the measuring script did not run"
+    *numbers, alt = found.group(1).split("|", 4)
+    return [float(v) for v in numbers], html.unescape(alt)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("which", ["study", "fit"])
+def test_first_screen_shows_contents_and_intervals_figure(which, study_report, report, tmp_path):
+    page = study_report if which == "study" else report
+    (toc_top, toc_bottom, fig_top, fig_bottom), alt = first_screen(page, tmp_path)
+    assert alt.startswith("Every body's m, x, rho, I and M_g: the posterior's 95% HDI")
+    # the table of contents, then the figure, both begun on the first screen (900 px) ...
+    assert 0 <= toc_top < toc_bottom < fig_top < 900
+    # ... and most of the figure on it: the reader sees the answer without scrolling
+    assert min(fig_bottom, 900) - fig_top > 0.5 * (fig_bottom - fig_top)
