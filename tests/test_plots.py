@@ -183,6 +183,7 @@ def figures(post, base):
         "inertia-by-speed": lambda: plots.plot_inertia_by_speed(synthetic_trials()),
         "trace": lambda: plots.plot_trace(post, body, max_walkers=4),
         "rank": lambda: plots.plot_rank(post, body),
+        "intervals": lambda: plots.plot_intervals(post),
     }
 
 
@@ -190,7 +191,16 @@ def figures(post, base):
 
 
 @pytest.mark.parametrize(
-    "name", ["corner", "identification-curve", "fast-trials", "inertia-by-speed", "trace", "rank"]
+    "name",
+    [
+        "corner",
+        "identification-curve",
+        "fast-trials",
+        "inertia-by-speed",
+        "trace",
+        "rank",
+        "intervals",
+    ],
 )
 def test_figure_matches_its_baseline_image(name, posterior, baseline, tmp_path):
     check_image(figures(posterior, baseline)[name](), name, tmp_path)
@@ -235,6 +245,7 @@ def test_width_sets_the_figure_width(posterior, width, inches):
             plots.plot_rank(posterior, body, width=width),
             plots.plot_fast_trials(synthetic_traces(), width=width),
             plots.plot_inertia_by_speed(synthetic_trials(), width=width),
+            plots.plot_intervals(posterior, width=width),
         )
     ):
         assert fig.get_size_inches()[0] == pytest.approx(inches)
