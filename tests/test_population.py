@@ -354,3 +354,21 @@ def test_population_sbc_is_calibrated_and_forgetting_the_priors_is_not():
         prior_sd_log=0.15,
     )
     assert np.mean(bad["mass", "intercept"] <= 1) >= 0.6, bad["mass", "intercept"]
+
+
+def test_a_hyperparameter_gets_the_verdict_a_body_parameter_does():
+    """``decided_by`` is :func:`inertiafit.posterior.pins.verdict` of the SD ratio with its
+    Monte Carlo SE: an SD ratio of 0.8 from 5000 effective draws is the prior's, from 20 it is
+    too uncertain to leave the middle; 0.72 is within the margin either way; 0.1 the data's."""
+    from inertiafit.inference.pooling import _decided
+
+    rng = np.random.default_rng(9)
+    for ratio, ess, expected in (
+        (0.8, 5000.0, "prior"),
+        (0.8, 20.0, "data + prior"),
+        (0.72, 5000.0, "data + prior"),
+        (0.1, 20.0, "data"),
+    ):
+        draws = rng.standard_normal(20000)
+        draws *= ratio / draws.std()
+        assert _decided(draws, 1.0, ess) == expected, (ratio, ess)

@@ -66,6 +66,8 @@ R_HAT_MAX = 1.02
 #: the ranks in the outer fifth, where 20 % belong (the mean over single draws with its ESS
 #: cut gave 25 %, and 22 % with 5000); with 500 draws 25 % (31-33 %).
 MAX_LOGLIKE_VARIANCE = 0.1
+#: Hyperprior draws each term's prior SD is measured from (``decided_by``).
+PRIOR_SD_DRAWS = 4000
 #: Studies a body must be in to be pooled.
 MIN_SUBJECTS = 3
 #: Columns of ``population.csv``.
@@ -679,11 +681,22 @@ def _split_half_noise(
     return (a - b) / 2.0
 
 
-def _decided(draws: np.ndarray, prior_sd: float) -> str:
-    """Who decides a hyperparameter: its posterior SD over its hyperprior SD, as for a body."""
-    from inertiafit.posterior.core import identification_verdict
+def _decided(draws: np.ndarray, prior_sd: float, ess: float) -> str:
+    """Who decides a hyperparameter: the one verdict a body's parameters get.
 
-    return identification_verdict(float(np.std(draws)) / prior_sd) if prior_sd > 0 else "data"
+    Its posterior SD over its hyperprior SD (from :data:`PRIOR_SD_DRAWS` draws of the
+    hyperprior), read by :func:`inertiafit.posterior.pins.verdict` with the ratio's Monte Carlo
+    SE (an SD from ``n`` effective draws has a relative SE of ``1/sqrt(2 n)``), so that the
+    same cohort fitted with another seed keeps its verdict.
+    """
+    from inertiafit.posterior.pins import verdict
+
+    if not prior_sd > 0:
+        return "data"
+    ratio = float(np.std(draws)) / prior_sd
+    n = ess if math.isfinite(ess) and ess > 0 else float(len(draws))
+    se = ratio * math.sqrt(1.0 / (2.0 * n) + 1.0 / (2.0 * PRIOR_SD_DRAWS))
+    return verdict(ratio, se)
 
 
 class PopulationPosterior:
@@ -756,14 +769,14 @@ class PopulationPosterior:
                 v = typical[p]
                 chain = v.reshape(fit.draws.shape[:2])
                 row = self._row(body, p, "typical", v, chain, hdi_prob, UNITS[p], reference)
-                row["decided_by"] = _decided(np.log(v), prior_sd[p, "typical"])
+                row["decided_by"] = _decided(np.log(v), prior_sd[p, "typical"], row["ess_bulk"])
                 rows.append(row)
             for (p, term), v in terms.items():
                 if term == "intercept":
                     continue
                 unit = "" if term.startswith(("slope", "correlation")) else "log"
                 row = self._row(body, p, term, v, chains[p, term], hdi_prob, unit, reference)
-                row["decided_by"] = _decided(v, prior_sd[p, term])
+                row["decided_by"] = _decided(v, prior_sd[p, term], row["ess_bulk"])
                 rows.append(row)
         return pd.DataFrame(rows, columns=POPULATION_COLUMNS)
 
@@ -771,7 +784,7 @@ class PopulationPosterior:
         """Each reported term's SD under the hyperprior (log units for the typical values)."""
         fit = self.fits[body]
         rng = np.random.default_rng(0)
-        z = model.sample_hyperprior(fit.design, fit.hyperprior, fit.center, 4000, rng)
+        z = model.sample_hyperprior(fit.design, fit.hyperprior, fit.center, PRIOR_SD_DRAWS, rng)
         terms = model.natural_terms(fit.design, z)
         out = {k: float(np.std(v)) for k, v in terms.items()}
         typ = {p: terms[p, "intercept"] for p in PARAMETERS}

@@ -10,7 +10,6 @@ from __future__ import annotations
 from inertiafit.posterior.core import (
     SUMMARY_COLUMNS,
     Posterior,
-    identification_verdict,
     inputs_json,
     open_posterior,
 )
@@ -18,7 +17,6 @@ from inertiafit.posterior.core import (
 __all__ = [
     "SUMMARY_COLUMNS",
     "Posterior",
-    "identification_verdict",
     "inputs_json",
     "open_posterior",
 ]

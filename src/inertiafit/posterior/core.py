@@ -44,7 +44,6 @@ __all__ = [
     "PREDICTIVE_COLUMNS",
     "SUMMARY_COLUMNS",
     "Posterior",
-    "identification_verdict",
     "inputs_json",
     "open_posterior",
 ]
@@ -75,19 +74,6 @@ PREDICTIVE_COLUMNS = [
     "tail_probability",
     "conflict",
 ]
-
-
-def identification_verdict(ratio: float) -> str:
-    """The plain split of an SD ratio: ``data`` (< 0.3), ``prior`` (> 0.7), or both.
-
-    The population layer's hyperparameters read it; a body's verdict, with its margin against
-    Monte Carlo noise, is :func:`inertiafit.posterior.pins.verdict`.
-    """
-    if ratio < 0.3:
-        return "data"
-    if ratio > 0.7:
-        return "prior"
-    return "data + prior"
 
 
 class Posterior:
