@@ -20,7 +20,7 @@ def disk_run(disk_fit):
 
 def test_fit_writes_every_output(disk_run):
     # the set `inertiafit run` writes, less the trial tables (trials, speed_effect, traces)
-    figures = ["corner", "identification-disk-3kg", "trace-disk-3kg", "rank-disk-3kg"]
+    figures = ["intervals", "corner", "identification-disk-3kg", "trace-disk-3kg", "rank-disk-3kg"]
     tables = ["summary", "identification", "comparison"]
     assert {p.name for p in disk_run.iterdir()} == {
         ".inertiafit-output",
