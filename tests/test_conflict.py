@@ -377,8 +377,9 @@ def test_the_living_tutorials_forearm_is_said_and_not_told_to_weigh_it(tmp_path)
     from inertiafit.pipeline.study import analyse_study
     from inertiafit.simulate import simulate_living_study
 
-    # the tutorial's manifest: its de Leva prior (78 kg, 0.28 m) on the simulated forearm of
-    # 1.5 kg, x 0.15 m, rho 0.08 m - whose I (0.043) is half what that prior expects (0.088)
+    # the living tutorial's study before issue 34 made its forearm an adult's: a de Leva prior
+    # (78 kg, 0.28 m) on the simulator's default forearm of 1.5 kg, x 0.15 m, rho 0.08 m -
+    # whose I (0.043) is half what that prior expects (0.088)
     de_leva = {"anthropometric": "de-leva-male", "segment": "forearm+hand"}
     de_leva |= {"body_mass": 78.0, "segment_length": 0.28}
     manifest = simulate_living_study(
