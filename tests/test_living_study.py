@@ -153,3 +153,51 @@ def test_passive_curve_figure_draws_the_band_and_each_gravity_curve(living_run):
     assert "passive elastic moment" in labels
     assert "gravity moment, attachment+forearm" in labels
     assert len(ax.collections) == 2  # the prior's band and the posterior's
+
+
+@pytest.mark.slow
+def test_living_bodies_pool_as_rigid_ones_do(living_run, monkeypatch):
+    """Issue 33: a living body's draws pool into a population as a rigid body's do. Its stored
+    interim density is its own prior's at each draw (the joint's parameters marginalised
+    out), so the population divides out the right prior; three subjects with this study's
+    data pool back to what each measured (I and M_g within 3 %), with the joint's parameters
+    in no table. Short hyperparameter runs: the population's accuracy is test_population.py's."""
+    import functools
+    import warnings
+
+    import numpy as np
+
+    from inertiafit.errors import ConvergenceWarning, InertiafitWarning
+    from inertiafit.inference import pooling
+    from inertiafit.inference.priors import priors_from_posterior
+
+    _, out = living_run
+    monkeypatch.setattr(
+        pooling, "fit_population", functools.partial(pooling.fit_population, max_steps=600)
+    )
+    posts = []
+    for i, (mass, length) in enumerate(((70.0, 0.26), (78.0, 0.28), (86.0, 0.30))):
+        post = open_posterior(out / "posterior.nc")
+        subject = {"id": f"S{i + 1}", "body_mass": mass, "height": None, "sex": None}
+        post.tree.attrs["inputs"] = json.dumps(
+            {"subject": subject | {"covariates": {}}, "segment_length": {"forearm": length}}
+        )
+        posts.append(post)
+    draws = pooling.subject_draws(
+        pooling.StudyPosterior("S1", posts[0], None), "forearm", {"body_mass": 70.0}
+    )
+    theta = np.exp(draws.log_theta)
+    prior = priors_from_posterior(posts[0])["forearm"].log_density(*theta.T)
+    np.testing.assert_allclose(draws.log_interim - draws.log_interim.mean(),
+                               prior - prior.mean(), atol=1e-9)  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        warnings.simplefilter("ignore", InertiafitWarning)
+        pop = pooling.population(posts, bodies=["forearm"], seed=0)
+    summary = pop.summary()
+    assert set(summary["body"]) == {"forearm"}
+    assert not summary["parameter"].str.contains("passive|damping|joint").any()
+    subjects = pop.subjects()
+    assert len(subjects) == 3 * 5
+    ig = subjects[subjects["parameter"].isin(["inertia", "gravity_moment"])]
+    np.testing.assert_allclose(ig["pooled_median"], ig["own_median"], rtol=0.03)
