@@ -22,7 +22,7 @@ from inertiafit.inference.evidence import evidence_from_numbers, measured_from_n
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.sampler import SamplerSettings, sample
-from inertiafit.measured import MEASURED_QUANTITIES
+from inertiafit.inference.terms import TERM_KINDS, Term
 from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED, UNITS
 from inertiafit.posterior import Posterior, inputs_json
 
@@ -48,65 +48,36 @@ def _installed_versions() -> dict[str, str]:
     return out
 
 
-def _observation_summary(model: Model) -> dict[str, tuple[str, np.ndarray]]:
-    """The evidence as used, as ``name: (dim, values)`` of the ``constant_data`` group.
+def _term_data(model: Model) -> tuple[dict[str, xr.DataArray], dict[str, xr.DataArray]]:
+    """The ``observed_data`` and ``constant_data`` variables, as every kind of term gives them.
 
-    Centre, scale and degrees of freedom per condition and observable, and the direct
-    measurements per body (NaN where none).
+    Each registered kind (:data:`~inertiafit.inference.terms.TERM_KINDS`, in its order) is
+    asked once for its terms of the model (:meth:`~inertiafit.inference.terms.Term.data`).
     """
-    data: dict[str, tuple[str, np.ndarray]] = {}
-    conds = model.conditions
-    for obs_name in ("inertia", "gravity_moment"):
-        rows = [getattr(c, obs_name) for c in conds]
-        for field in ("center", "scale", "df", "n", "shared_sd"):
-            vals = [float(getattr(o, field)) if o else math.nan for o in rows]
-            data[f"{obs_name}_{field}"] = ("condition", np.array(vals))
-    data["coupling"] = ("condition", np.array([c.coupling for c in conds], float))
-    data["offset"] = ("condition", np.array([c.offset for c in conds], float))
-    data["offset_body"] = ("condition", np.array([c.offset_body for c in conds], dtype=str))
-    data["added_first_moment"] = ("condition", np.array([c.added_first_moment for c in conds]))
-    data["added_inertia"] = ("condition", np.array([c.added_inertia for c in conds], float))
-    for key, q in MEASURED_QUANTITIES.items():
-        for field, name in zip(("center", "total_scale"), q.constant_vars, strict=True):
-            vals = [
-                float(getattr(model.measured[b][key], field))
-                if key in model.measured.get(b, {})
-                else math.nan
-                for b in model.bodies
-            ]
-            data[name] = ("body", np.array(vals))
-    return data
+    observed: dict[str, xr.DataArray] = {}
+    constant: dict[str, xr.DataArray] = {}
+    for kind in TERM_KINDS.values():
+        data = kind.data([t for t in model.terms if isinstance(t, kind)], model.bodies)
+        for out, group in ((observed, data.observed), (constant, data.constant)):
+            for name, d in group.items():
+                if name in observed or name in constant:
+                    raise ValueError(f"{kind.kind} term: variable '{name}' is written twice")
+                out[name] = xr.DataArray(
+                    d.values,
+                    dims=d.dims,
+                    coords=dict(d.coords),
+                    attrs={"units": d.units} if d.units else {},
+                )
+    return observed, constant
 
 
-def _observed(model: Model) -> xr.Dataset:
-    out = {}
-    for obs_name in ("inertia", "gravity_moment"):
-        values: list[float] = []
-        conds: list[str] = []
-        for c in model.conditions:
-            o = getattr(c, obs_name)
-            if o is None:
-                continue
-            vals = o.values or (o.center,)
-            values.extend(vals)
-            conds.extend([c.label] * len(vals))
-        dim = f"{obs_name}_obs"
-        out[obs_name] = xr.DataArray(
-            np.array(values, float),
-            dims=dim,
-            coords={f"{obs_name}_condition": (dim, np.array(conds, dtype=str))},
-            attrs={"units": UNITS[obs_name]},
-        )
-    for key, q in MEASURED_QUANTITIES.items():
-        bodies = model.measured_bodies(key)
-        if bodies:
-            out[key] = xr.DataArray(
-                np.array([model.measured[b][key].center for b in bodies]),
-                dims=q.body_dim,
-                coords={q.body_dim: bodies},
-                attrs={"units": q.unit},
-            )
-    return xr.Dataset(out)
+def _sources(model: Model) -> dict[str, dict[str, str]]:
+    """Each ``log_likelihood`` variable's attributes: its term kind's :class:`Source`."""
+    out: dict[str, dict[str, str]] = {}
+    for t in model.terms:
+        for var in t.variables:
+            out.setdefault(var, type(t).SOURCES[var].attrs())
+    return out
 
 
 def _log_prior(model: Model, run, coords: dict) -> xr.Dataset:
@@ -193,8 +164,11 @@ def build_tree(
     terms = model.log_likelihood_terms(
         run.chain, run.parameters["mass"] if model.has_extra else None
     )
+    sources = _sources(model)
     ll_vars = {
-        var: xr.DataArray(terms[var], dims=("chain", "draw", dim), coords={dim: labels})
+        var: xr.DataArray(
+            terms[var], dims=("chain", "draw", dim), coords={dim: labels}, attrs=sources[var]
+        )
         for var, (dim, labels) in model.likelihood_coords().items()
     }
     log_likelihood = xr.Dataset(ll_vars, coords={"chain": coords["chain"], "draw": coords["draw"]})
@@ -209,13 +183,14 @@ def build_tree(
         )
         for key in ("nominal", "lower", "upper")
     }
+    observed, term_constants = _term_data(model)
     # One constructor: adding variables one at a time (or merging) aligns them each time.
     constant = xr.Dataset(
         {
             **box,
             "gravity": xr.DataArray(model.gravity, attrs={"units": "m s-2"}),
             "torque_gain_sd": xr.DataArray(model.torque_gain_sd, attrs={"units": "1"}),
-            **_observation_summary(model),
+            **term_constants,
         },
         coords={
             "body": bodies,
@@ -272,7 +247,7 @@ def build_tree(
             "sample_stats": sample_stats,
             "log_likelihood": log_likelihood,
             "log_prior": _log_prior(model, run, coords),
-            "observed_data": _observed(model),
+            "observed_data": xr.Dataset(observed),
             "prior": prior,
             "constant_data": constant,
         }
@@ -328,6 +303,7 @@ def fit_body(
     mass_sd: float | None = None,
     com_distance: float | None = None,
     com_distance_sd: float | None = None,
+    terms: Sequence[Term] = (),
 ) -> Posterior:
     """Posterior of one body from reported numbers.
 
@@ -353,6 +329,9 @@ def fit_body(
         step ``q`` alone has the SD ``q / sqrt(12)``): a Gaussian term of the posterior.
     com_distance, com_distance_sd : float, optional
         A balance point: the centre of mass's distance from the joint axis (m) and its SD (m).
+    terms : sequence of Term, optional
+        Further evidence (:mod:`inertiafit.inference.terms`, any registered kind), on the
+        body named after the prior.
 
     Returns
     -------
@@ -381,6 +360,7 @@ def fit_body(
         gravity=gravity,
         torque_gain_sd=torque_gain_sd,
         measured={prior.name: measured} if measured else None,
+        terms=terms,
     )
     inputs = {
         "prior": prior.name,

@@ -863,8 +863,8 @@ class Model:
         return out
 
     # -- evidence on the angle ---------------------------------------------------------------
-    def _curve_terms(self, z, k: int, a_k) -> list[CurvePiece]:
-        """The terms on body ``k``'s angle for rows ``z`` (2-D or ``None``; ``a_k`` its true ``a``).
+    def _curve_terms(self, z, k: int, a_k, b_k) -> list[CurvePiece]:
+        """The terms on body ``k``'s angle for rows ``z`` (2-D or ``None``), true ``a_k``, ``b_k``.
 
         Each term's :class:`~inertiafit.inference.terms.CurvePiece`: its log-likelihood on a grid
         of masses and CoM distances, the interval of masses outside which it holds less than
@@ -877,7 +877,7 @@ class Model:
         """
         body = self.bodies[k]
         point = None if z is None or k not in self.moved_conditions else self._point(z)
-        return [t.curve(point, a_k) for t in self._angle_terms[body]]
+        return [t.curve(point, a_k, b_k) for t in self._angle_terms[body]]
 
     def _curve_grid(self, z, k: int, a, b):
         """Body ``k``'s angle grid for rows ``z``: ``log f``, ``log`` cell width, cell edges.
@@ -909,7 +909,7 @@ class Model:
         the rows computed (``None``: all).
         """
         prior = self.priors[self.bodies[k]]
-        terms = self._curve_terms(z, k, a)
+        terms = self._curve_terms(z, k, a, b)
         m_lo = np.zeros(a.shape)
         m_hi = np.full(a.shape, np.inf)
         core = narrowest = None
@@ -972,7 +972,7 @@ class Model:
         rows = np.flatnonzero(ok)
         if not rows.size:
             return np.empty((0, 1)), np.empty((0, 1)), None, rows
-        terms = self._curve_terms(None if z is None else z[rows], k, a[rows])
+        terms = self._curve_terms(None if z is None else z[rows], k, a[rows], b[rows])
         cells = self._grid_values(
             prior,
             terms,

@@ -244,7 +244,13 @@ def reference_posterior(
         log_p = np.where(inside, prior.log_density(M, x, rho, check_support=False), -np.inf)
         w = w * np.exp(log_p - log_p.max())
     log_extra = np.zeros(M.shape)
-    params = {"mass": M, "com_distance": x, "first_moment": A, "inertia": B}
+    params = {
+        "mass": M,
+        "com_distance": x,
+        "radius_of_gyration": rho,
+        "first_moment": A,
+        "inertia": B,
+    }
     for term in extra:
         log_extra = log_extra + term.body_log_likelihood(params)
     if extra:

@@ -238,6 +238,7 @@ class Posterior:
             )
             sens = self._sensitivities(body, specs[body])
             sources = pins.body_sources(self.tree, body)
+            direct = pins.direct_sources(self.tree, body)
             exact = conflict.prior_draws(specs[body], g)
             for p in REPORTED:
                 post = float(draws[p].std())
@@ -249,7 +250,7 @@ class Posterior:
                     pins.verdict(gain[p], gain_se[p]) if math.isfinite(gain[p]) else "data"
                 )
                 counted = pins.counted_sources(
-                    sources, p, {s: sens.get((s, p), 1.0) for s in sources}
+                    sources, p, {s: sens.get((s, p), 1.0) for s in sources}, direct
                 )
                 p_value = checked.get((body, p), math.nan)
                 rows.append(

@@ -30,12 +30,19 @@ for priors that are not a box.
 
 Sources
 -------
-``data`` (every condition's ``I`` and ``M_g``) always; ``weighed mass`` where the tree's
-``log_likelihood`` has ``mass`` for the body (dim ``mass_body``); ``balance point`` where it has
-``com_distance`` (dim ``com_body``); ``second mounting`` where ``constant_data`` has a non-zero
-``offset`` of a condition whose ``offset_body`` is the body. Which of several sources pins a
+Each ``log_likelihood`` variable says what it is credited as, in the attributes its term kind
+wrote (:class:`inertiafit.inference.terms.Source`): ``source`` (the name, e.g. ``data``,
+``weighed mass``), ``credits`` (``coordinate``: an entry informs the body its coordinate
+names; ``all``: every body), ``pins`` (the parameters it measures directly) and
+``moved_source`` (the name an entry is credited as for the body its condition moves:
+``constant_data``'s ``offset_body`` at a non-zero ``offset``; a ``second mounting``). A body's
+sources are ``data`` (always), then those that measure a parameter directly, then the rest, each
+in the order of the variables; :func:`source_terms` sums each one's entries. A variable without
+these attributes (a tree written before terms carried them, or built by hand) is read as the
+quantity of :data:`~inertiafit.measured.MEASURED_QUANTITIES` it is named after, and otherwise
+as the dynamometer's own evidence (:func:`variable_source`). Which of several sources pins a
 parameter is read from ``psense`` of each source's log-likelihood terms (sensitivity >=
-:data:`PSENSE_THRESHOLD`); ``data`` is always named except for the parameter an extra source
+:data:`PSENSE_THRESHOLD`); ``data`` is always named except for a parameter another source
 measures directly (``m`` of a weighed mass, ``x`` of a balance point), since the others follow
 from ``m x`` and ``I`` as well. When none stands out all are named together.
 
@@ -78,7 +85,7 @@ from inertiafit.physics import PARAMETERS
 __all__ = [
     "BATCHES",
     "DATA_DECIDES",
-    "DIRECT",
+    "DATA_SOURCE",
     "PRIOR_DECIDES",
     "PRIOR_SCALE_STEP",
     "PSENSE_THRESHOLD",
@@ -90,6 +97,7 @@ __all__ = [
     "body_sources",
     "correlation_table",
     "counted_sources",
+    "direct_sources",
     "gain_scaling_log_weights",
     "living_bodies",
     "measured_quantities",
@@ -101,6 +109,7 @@ __all__ = [
     "prior_specs",
     "sensitivity",
     "source_terms",
+    "variable_source",
     "verdict",
 ]
 
@@ -130,6 +139,8 @@ SHARE_NOTE = (
     "it widens it; far outside 0-1 with a prior-data conflict, the data contradict the prior "
     "and narrowing it moves the posterior rather than narrows it - not Monte Carlo noise"
 )
+#: The dynamometer's own evidence: every body's first source.
+DATA_SOURCE = "data"
 #: psense sensitivity above which a source counts (Kallioinen et al.'s 0.05).
 PSENSE_THRESHOLD = 0.05
 #: Short names of the quantities in sentences.
@@ -304,16 +315,84 @@ def sensitivity(posterior: xr.Dataset, log_term: xr.DataArray) -> dict[str, floa
     return {str(v): float(result[v]) for v in result.data_vars}
 
 
+def variable_source(arr: xr.DataArray, name: str) -> dict[str, Any]:
+    """What the ``log_likelihood`` variable ``name`` is credited as (module docstring).
+
+    ``{"source", "credits", "pins", "moved_source"}`` from its attributes; without them, the
+    measured quantity it is named after (on its body dimension) or the dynamometer's data.
+    """
+    attrs = arr.attrs
+    if "source" in attrs:
+        return {
+            "source": str(attrs["source"]),
+            "credits": str(attrs.get("credits", "coordinate")),
+            "pins": tuple(str(attrs.get("pins", "")).split()),
+            "moved_source": str(attrs.get("moved_source", "")),
+        }
+    q = MEASURED_QUANTITIES.get(name)
+    if q is not None and q.body_dim in arr.dims:
+        return {"source": q.label, "credits": "coordinate", "pins": (q.name,), "moved_source": ""}
+    return {
+        "source": DATA_SOURCE,
+        "credits": "all",
+        "pins": (),
+        "moved_source": "second mounting",
+    }
+
+
+def _credited(
+    tree: xr.DataTree, body: str
+) -> list[tuple[str, tuple[str, ...], str, xr.DataArray]]:
+    """Each part of the ``log_likelihood`` group that informs ``body``.
+
+    ``(source, pins, variable, mask)``: ``mask`` a boolean along the variable's dimension,
+    true for its entries credited to ``source``.
+    """
+    if "log_likelihood" not in tree.children:
+        return []
+    ll = tree["log_likelihood"].to_dataset()
+    moved = set(_mountings(tree, body))
+    out: list[tuple[str, tuple[str, ...], str, xr.DataArray]] = []
+    for key, arr in ll.data_vars.items():
+        name = str(key)
+        dims = [str(d) for d in arr.dims if d not in ("chain", "draw")]
+        if len(dims) != 1:
+            continue
+        dim = dims[0]
+        labels = _labels(arr, dim)
+        src = variable_source(arr, name)
+        if src["credits"] == "all":
+            is_moved = [bool(src["moved_source"]) and c in moved for c in labels]
+            out.append(
+                (src["source"], (), name, xr.DataArray([not m for m in is_moved], dims=dim))
+            )
+            if any(is_moved):
+                out.append((src["moved_source"], (), name, xr.DataArray(is_moved, dims=dim)))
+        elif body in labels:
+            mask = xr.DataArray([c == body for c in labels], dims=dim)
+            out.append((src["source"], src["pins"], name, mask))
+    return out
+
+
+def _ordered(found: Sequence[tuple[str, tuple[str, ...]]]) -> dict[str, tuple[str, ...]]:
+    """Source names (and what they pin): ``data``, those that pin a parameter, the rest."""
+    pins: dict[str, tuple[str, ...]] = {DATA_SOURCE: ()}
+    for name, pinned in found:
+        pins[name] = tuple(dict.fromkeys((*pins.get(name, ()), *pinned)))
+    return {
+        name: pins[name] for name in sorted(pins, key=lambda n: (n != DATA_SOURCE, not pins[n]))
+    }
+
+
 def body_sources(tree: xr.DataTree, body: str) -> list[str]:
     """The information sources of ``body``: ``data`` and any extra ones (module docstring)."""
-    ll = tree["log_likelihood"].to_dataset() if "log_likelihood" in tree.children else None
-    out = ["data"]
-    for q in MEASURED_QUANTITIES.values():
-        if ll is not None and q.name in ll and body in _labels(ll[q.name], q.body_dim):
-            out.append(q.label)
-    if _mountings(tree, body):
-        out.append("second mounting")
-    return out
+    return list(_ordered([(s, p) for s, p, _, _ in _credited(tree, body)]))
+
+
+def direct_sources(tree: xr.DataTree, body: str) -> dict[str, tuple[str, ...]]:
+    """``body``'s sources that measure parameters directly, with those parameters."""
+    found = _ordered([(s, p) for s, p, _, _ in _credited(tree, body)])
+    return {s: p for s, p in found.items() if p}
 
 
 def measured_quantities(tree: xr.DataTree, body: str) -> tuple[str, ...]:
@@ -367,46 +446,33 @@ def _mountings(tree: xr.DataTree, body: str) -> list[str]:
 def source_terms(tree: xr.DataTree, body: str) -> dict[str, xr.DataArray]:
     """Each source's summed log-likelihood ``(chain, draw)`` for ``body`` (its sources only)."""
     ll = tree["log_likelihood"].to_dataset()
-    mounted = set(_mountings(tree, body))
     zero = xr.zeros_like(tree["posterior"].to_dataset()["mass"].isel(body=0, drop=True))
-    data, mounting = zero, zero
-    for name in ("inertia", "gravity_moment"):
-        if name not in ll:
-            continue
-        arr = ll[name]
-        dim = f"{name}_condition"
-        labels = _labels(arr, dim)
-        is_mounted = xr.DataArray([c in mounted for c in labels], dims=dim)
-        data = data + arr.where(~is_mounted, 0.0).sum(dim)
-        mounting = mounting + arr.where(is_mounted, 0.0).sum(dim)
-    terms = {"data": data}
-    sources = body_sources(tree, body)
-    for q in MEASURED_QUANTITIES.values():
-        if q.label in sources:
-            terms[q.label] = ll[q.name].sel({q.body_dim: body}, drop=True)
-    if "second mounting" in sources:
-        terms["second mounting"] = mounting
+    credited = _credited(tree, body)
+    terms = dict.fromkeys(_ordered([(s, p) for s, p, _, _ in credited]), zero)
+    for source, _, name, mask in credited:
+        terms[source] = terms[source] + ll[name].where(mask, 0.0).sum(str(mask.dims[0]))
     return terms
 
 
-#: The parameter an extra source measures directly.
-DIRECT = {q.label: q.name for q in MEASURED_QUANTITIES.values()}
-
-
 def counted_sources(
-    sources: Sequence[str], parameter: str, sensitivities: Mapping[str, float]
+    sources: Sequence[str],
+    parameter: str,
+    sensitivities: Mapping[str, float],
+    direct: Mapping[str, Sequence[str]] | None = None,
 ) -> list[str]:
     """The sources to name for ``parameter``: those whose psense reaches the threshold.
 
-    ``data`` stays unless an extra source measures the parameter directly (a weighed mass
-    ``m``, a balance point ``x``): every other parameter follows from ``m x`` and ``I`` too.
-    A source without a sensitivity counts; when none counts, all are named.
+    ``data`` stays unless a source measures the parameter directly (``direct``: the
+    parameters each source measures, :func:`direct_sources`; a weighed mass ``m``, a balance
+    point ``x``): every other parameter follows from ``m x`` and ``I`` too. A source without
+    a sensitivity counts; when none counts, all are named.
     """
-    direct = any(DIRECT.get(s) == parameter for s in sources)
+    direct = direct or {}
+    measured = any(parameter in direct.get(s, ()) for s in sources)
     counted = [
         s
         for s in sources
-        if sensitivities.get(s, 1.0) >= PSENSE_THRESHOLD or (s == "data" and not direct)
+        if sensitivities.get(s, 1.0) >= PSENSE_THRESHOLD or (s == DATA_SOURCE and not measured)
     ]
     return counted or list(sources)
 

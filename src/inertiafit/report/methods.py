@@ -27,6 +27,7 @@ import pandas as pd
 
 from inertiafit.formatting import plural
 from inertiafit.inference.priors import Prior
+from inertiafit.inference.terms import TERM_KINDS
 from inertiafit.physics import PARAMETERS, UNITS
 from inertiafit.processing import filtering, living, window
 from inertiafit.processing.study import usable_trials
@@ -319,19 +320,7 @@ def _model(result: Result) -> list[str]:
         "the rotation axis and its radius of gyration rho about the centre of mass; the data "
         "identify only m·x = M_g/g and I = m (rho^2 + x^2), entered with the likelihoods above."
     ]
-    extra = []
-    for name, label in (
-        ("measured_mass", "a weighed mass"),
-        ("measured_com_distance", "a balance point"),
-    ):
-        if name in cd and np.isfinite(np.asarray(cd[name], float)).any():
-            extra.append(label)
-    if "offset" in cd and np.any(np.asarray(cd["offset"], float) != 0):
-        extra.append("a second mounting at another distance from the axis")
-    if "added_inertia" in cd and np.any(np.asarray(cd["added_inertia"], float) != 0):
-        extra.append("known added masses")
-    if extra:
-        paras.append(f"Further evidence on the bodies: {_and(extra)}.")
+    paras += _evidence(post.tree)
     gain = float(cd["torque_gain_sd"]) if "torque_gain_sd" in cd else 0.0
     paras.append(
         f"The torque channel's gain was given a log-normal uncertainty of {100 * gain:g} % "
@@ -348,6 +337,27 @@ def _model(result: Result) -> list[str]:
         "report's identification table gives each quantity's posterior-to-prior SD ratio."
     )
     return paras
+
+
+def _evidence(tree) -> list[str]:
+    """What every kind of term says of its evidence in the tree (:meth:`Term.methods`).
+
+    One paragraph lists the phrases, direct measurements first (each in the registry's order),
+    each phrase once; the kinds' own sentences follow it, with their citations.
+    """
+    said = [text for kind in TERM_KINDS.values() for text in kind.methods(tree)]
+    said.sort(key=lambda t: not t.measures)  # stable: the registry's order within each
+    phrases: list[str] = []
+    sentences: list[str] = []
+    for t in said:
+        cited = f" {cite(t.cite)}" if t.cite else ""
+        sentence = t.sentence.rstrip(".") + cited + "." if t.sentence else ""
+        phrase = t.phrase + ("" if sentence else cited)
+        if sentence and sentence not in sentences:
+            sentences.append(sentence)
+        if phrase and phrase not in phrases:
+            phrases.append(phrase)
+    return ([f"Further evidence on the bodies: {_and(phrases)}."] if phrases else []) + sentences
 
 
 # -- a living joint ----------------------------------------------------------------------------

@@ -14,6 +14,11 @@ Kinds, one module each, registered by :func:`~inertiafit.inference.terms.base.re
   (Student-t) and ``M_g`` (Gaussian), on the angle of its moved body when it has one;
 - :mod:`~inertiafit.inference.terms.measured`: a direct measurement of one body
   (:data:`inertiafit.measured.MEASURED_QUANTITIES`), on that body's angle.
+
+Each kind also carries its evidence to the outputs: its observed values and constants
+(:meth:`~inertiafit.inference.terms.base.Term.data`, written into ``posterior.nc``), the
+:class:`~inertiafit.inference.terms.base.Source` of each variable ("what pins what") and what
+the Methods text says of it (:meth:`~inertiafit.inference.terms.base.Term.methods`).
 """
 
 from inertiafit.inference.terms.base import (
@@ -21,8 +26,12 @@ from inertiafit.inference.terms.base import (
     TERM_KINDS,
     WINDOW_TAIL,
     CurvePiece,
+    Datum,
+    MethodsText,
     Point,
+    Source,
     Term,
+    TermData,
     register_term,
 )
 from inertiafit.inference.terms.condition import ConditionEvidence
@@ -34,8 +43,12 @@ __all__ = [
     "WINDOW_TAIL",
     "ConditionEvidence",
     "CurvePiece",
+    "Datum",
     "MeasuredEvidence",
+    "MethodsText",
     "Point",
+    "Source",
     "Term",
+    "TermData",
     "register_term",
 ]

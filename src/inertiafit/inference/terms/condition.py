@@ -10,14 +10,26 @@ lever (``Condition(offset_body=, offset=)``): its totals then grow with that bod
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from inertiafit import physics
-from inertiafit.inference.terms.base import CORE_SDS, WINDOW_TAIL, CurvePiece, Point, register_term
+from inertiafit.inference.terms.base import (
+    CORE_SDS,
+    WINDOW_TAIL,
+    CurvePiece,
+    Datum,
+    MethodsText,
+    Point,
+    Source,
+    TermData,
+    register_term,
+)
+from inertiafit.physics import UNITS
 
 if TYPE_CHECKING:
     from inertiafit.inference.model import Condition
@@ -42,6 +54,11 @@ class ConditionEvidence:
     gravity: float
     kind: ClassVar[str] = "condition"
     VARIABLES: ClassVar[tuple[str, ...]] = ("inertia", "gravity_moment")
+    #: The dynamometer's own evidence informs every body; a condition that moves a body is
+    #: that body's second mounting.
+    SOURCES: ClassVar[Mapping[str, Source]] = {
+        v: Source("data", credits="all", moved="second mounting") for v in VARIABLES
+    }
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -111,9 +128,9 @@ class ConditionEvidence:
             total_a, total_b = ta + sa * m, tb + sb * m
         return self.at_totals(total_a, total_b)
 
-    def curve(self, point: Point | None, a_k) -> CurvePiece:
+    def curve(self, point: Point | None, a_k, b_k) -> CurvePiece:
         """On the moved body's curve: the totals are lines in its mass (rows)."""
-        del a_k  # the lines hold the moved body's own a
+        del a_k, b_k  # the lines hold the moved body's own a and b
         assert point is not None
         cond, g = self.condition, self.gravity
         ta, slope_a, tb, slope_b = self.lines(point)
@@ -169,3 +186,63 @@ class ConditionEvidence:
         if self.condition.offset_body:
             a, b = physics.moved_moments(a, b, params["mass"], self.condition.offset)
         return self._summed(a, b)
+
+    @classmethod
+    def data(cls, terms: Sequence[ConditionEvidence], bodies: Sequence[str]) -> TermData:
+        """Each condition's observed ``I`` and ``M_g`` values, and the evidence as used.
+
+        ``observed_data``: the trial values (or the centre) of ``inertia`` and
+        ``gravity_moment``, along ``<name>_obs`` with their condition as
+        ``<name>_condition``. ``constant_data``, along ``condition``: centre, scale, degrees
+        of freedom, ``n`` and shared SD per observable (NaN where a condition has none), the
+        coupling, the moved body and its offset, the known added masses' ``a`` and ``I``.
+        """
+        del bodies  # along the conditions
+        conds = [t.condition for t in terms]
+        observed: dict[str, Datum] = {}
+        constant: dict[str, Datum] = {}
+        for name in cls.VARIABLES:
+            values: list[float] = []
+            labels: list[str] = []
+            for c in conds:
+                o = getattr(c, name)
+                if o is None:
+                    continue
+                vals = o.values or (o.center,)
+                values.extend(vals)
+                labels.extend([c.label] * len(vals))
+            dim = f"{name}_obs"
+            observed[name] = Datum(
+                dim,
+                np.array(values, float),
+                UNITS[name],
+                {f"{name}_condition": (dim, np.array(labels, dtype=str))},
+            )
+        for name in cls.VARIABLES:
+            rows = [getattr(c, name) for c in conds]
+            for part in ("center", "scale", "df", "n", "shared_sd"):
+                vals = [float(getattr(o, part)) if o else math.nan for o in rows]
+                constant[f"{name}_{part}"] = Datum("condition", np.array(vals))
+        constant["coupling"] = Datum("condition", np.array([c.coupling for c in conds], float))
+        constant["offset"] = Datum("condition", np.array([c.offset for c in conds], float))
+        constant["offset_body"] = Datum(
+            "condition", np.array([c.offset_body for c in conds], dtype=str)
+        )
+        constant["added_first_moment"] = Datum(
+            "condition", np.array([c.added_first_moment for c in conds])
+        )
+        constant["added_inertia"] = Datum(
+            "condition", np.array([c.added_inertia for c in conds], float)
+        )
+        return TermData(observed, constant)
+
+    @classmethod
+    def methods(cls, tree: Any) -> list[MethodsText]:
+        """A second mounting and known added masses, where ``constant_data`` has them."""
+        cd = tree["constant_data"]
+        out = []
+        if "offset" in cd and np.any(np.asarray(cd["offset"], float) != 0):
+            out.append(MethodsText("a second mounting at another distance from the axis"))
+        if "added_inertia" in cd and np.any(np.asarray(cd["added_inertia"], float) != 0):
+            out.append(MethodsText("known added masses"))
+        return out
