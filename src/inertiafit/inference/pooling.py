@@ -449,7 +449,8 @@ def fit_population(
     The density reads each subject's stored draws (up to :data:`MAX_DRAWS`) as Gaussian
     cells along its ridge (:class:`~inertiafit.inference.population.Cells`); the start (EM)
     and each subject's pooled draws use a stratified share of them (``draws_per_subject``,
-    default from :data:`POINTS`), and its importance-weight ESS every one. The walkers start around the Laplace approximation at the posterior mode and move by
+    default from :data:`POINTS`), and its importance-weight ESS every one. The walkers start
+    around the Laplace approximation at the posterior mode and move by
     independence Metropolis-Hastings from a Student-t around it, differential evolution and
     DE-snooker (:func:`inertiafit.inference.moves.emcee_moves`); sampling runs in chunks until
     every coordinate's bulk ESS reaches ``ess_target`` and its R-hat (walkers as chains) is at
