@@ -22,7 +22,7 @@ from inertiafit.errors import InputError
 @pytest.mark.parametrize(
     ("call", "value"),
     [
-        (lambda: check_number("2.5", "x"), 2.5),
+        (lambda: check_number(2.5, "x"), 2.5),
         (lambda: check_number(math.inf, "x"), math.inf),
         (lambda: check_finite(np.float64(0.1), "x"), 0.1),
         (lambda: check_finite(-3, "x", "m"), -3.0),
@@ -44,6 +44,9 @@ def test_valid_values_come_back_as_numbers(call, value):
     ("call", "message"),
     [
         (lambda: check_number(True, "x"), "x: expected a number, got True"),
+        # text is no number, for check_number as for check_finite (issue 35 item 4)
+        (lambda: check_number("2.5", "x"), "x: expected a number, got '2.5'"),
+        (lambda: check_probability("0.9"), "hdi_prob: expected a number, got '0.9'"),
         (lambda: check_finite("1", "x", "m"), "x: expected a number (m), got '1'"),
         (lambda: check_finite(math.nan, "x"), "x: expected a finite number, got nan"),
         (lambda: check_finite(None, "w", field="a.b"), "w: 'a.b' must be a number, got None"),
