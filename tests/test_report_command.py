@@ -80,7 +80,9 @@ def missing_figures(folder, records, ext="png"):
 
 def test_every_registered_figure_is_written_and_shown_in_report_html(study_out, tmp_path):
     records = figure_records(load_result(study_out))
-    assert len(records) == 13  # intervals, 3 corner, 2 identification, 3 trials, 4 diagnostics
+    # intervals, 3 corner, 2 identification, 6 trials (the gravity fit, per condition its fast
+    # trials and their tau-alpha fits, inertia by speed), 4 diagnostics
+    assert len(records) == 16
     assert len({r.stem for r in records}) == len(records)
     assert missing_figures(study_out, records) == []
     page = (study_out / "report.html").read_text(encoding="utf-8")
@@ -270,10 +272,9 @@ def test_report_redraws_from_saved_outputs_only(study_out, tmp_path, monkeypatch
 
 def test_report_without_png_files_still_embeds_every_figure(study_out, tmp_path, monkeypatch):
     # figures are drawn and let go one at a time; report.html gets a PNG of each all the same
-    # (four of the twelve figures after the intervals figure, one of each kind, keep the test
-    # short)
+    # (four of the fifteen figures after the intervals figure keep the test short)
     every = figures_module.figure_records
-    monkeypatch.setattr(outputs_module, "figure_records", lambda result: every(result)[1::3])
+    monkeypatch.setattr(outputs_module, "figure_records", lambda result: every(result)[1::4])
     study_out = _copy(study_out, tmp_path)
     assert main(["report", str(study_out), "--formats", "pdf"]) == 0
     html = (study_out / "report.html").read_text(encoding="utf-8")

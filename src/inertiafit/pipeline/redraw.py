@@ -26,6 +26,7 @@ from inertiafit.processing.living import living_tables_from_tree
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
     EMG_TRACE_COLUMNS,
+    SWEEP_COLUMNS,
     TRACE_COLUMNS,
     TRIAL_COLUMNS,
     usable_trials,
@@ -33,11 +34,13 @@ from inertiafit.processing.study import (
 from inertiafit.report.outputs import DATA_FILES, write_outputs
 from inertiafit.report.result import Result, make_result
 
-__all__ = ["LATER_TRIAL_COLUMNS", "load_result", "redraw"]
+__all__ = ["LATER_TRACE_COLUMNS", "LATER_TRIAL_COLUMNS", "load_result", "redraw"]
 
 
 #: Columns added to ``trials.csv`` later, with the value of a table written before them.
 LATER_TRIAL_COLUMNS: dict[str, object] = {"status": "ok", "lag": math.nan, "lag_se": math.nan}
+#: Columns added to ``traces.csv`` later: a table written before them draws no tau-alpha fits.
+LATER_TRACE_COLUMNS: dict[str, object] = {"inertial_torque": math.nan}
 
 
 def _read_table(
@@ -107,13 +110,16 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
     trials = _read_table(folder / "trials.csv", TRIAL_COLUMNS, text, LATER_TRIAL_COLUMNS)
     trials["flags"] = trials["flags"].fillna("").astype(str)
     used = usable_trials(trials)
-    traces = _read_table(folder / "traces.csv", TRACE_COLUMNS, {"condition": str})
+    traces = _read_table(
+        folder / "traces.csv", TRACE_COLUMNS, {"condition": str}, LATER_TRACE_COLUMNS
+    )
     emg_traces = _read_table(
         folder / "emg_traces.csv",
         EMG_TRACE_COLUMNS,
         {"condition": str, "trial": str, "muscle": str, "status": str},
     )
-    check_as_written(folder, ("posterior.nc", "trials.csv", "traces.csv", "emg_traces.csv"))
+    sweeps = _read_table(folder / "sweeps.csv", SWEEP_COLUMNS, {"condition": str, "file": str})
+    check_as_written(folder, DATA_FILES)
     warnings = list(inputs.get("warnings", []))
     baselines = paper_baselines(trials, conditions, priors, gravity=gravity, notes=warnings)
     return make_result(
@@ -132,6 +138,7 @@ def load_result(folder: str | Path, *, hdi_prob: float = 0.95) -> Result:
         manifest=inputs.get("manifest", ""),
         living=living_tables_from_tree(post.tree),
         emg_traces=emg_traces,
+        sweeps=sweeps,
     )
 
 

@@ -393,6 +393,7 @@ def analyse_study(
         manifest=str(study.path),
         living=living,
         emg_traces=processed.emg_traces,
+        sweeps=processed.sweeps,
     )
 
 

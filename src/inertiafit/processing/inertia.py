@@ -127,6 +127,12 @@ class InertiaEstimate:
     velocity, acceleration : ndarray or None
         The filtered velocity (rad/s) and acceleration (rad/s^2) of the whole trial, on its
         time samples, that the estimate was made from (for figures of the window).
+    inertial_torque : ndarray or None
+        The torque the inertia was fitted to, on the same samples (N m): the filtered torque,
+        advanced by the lag, less the subtracted gravity model (a living body's: less its
+        static curve, the fitted damping ``b omega`` and the trial's constant ``c_t``). Its
+        least squares on ``acceleration`` through the origin, over the window's samples (a
+        living trial's: the acceleration's and the deceleration's), is ``inertia``.
     lag : float
         Seconds the torque channel lags the velocity (positive: the torque is late), removed
         before the estimate: estimated, or fixed by the manifest (``lag_source``).
@@ -166,6 +172,7 @@ class InertiaEstimate:
     source: str = ""
     velocity: NDArray | None = field(default=None, repr=False, compare=False)
     acceleration: NDArray | None = field(default=None, repr=False, compare=False)
+    inertial_torque: NDArray | None = field(default=None, repr=False, compare=False)
     lag: float = 0.0
     lag_se: float = 0.0
     lag_source: str = "manifest"
@@ -360,6 +367,7 @@ def estimate_inertia(
             net_f, shifted_rate, alpha_f, win, terms, lag_sensitivity
         )
         slopes = np.array([value])
+        extra["inertial_torque"] = net_f
     # The estimates as linear functions of the filtered torque on every sample: directly
     # through the window rows, and through the estimated lag.
     laid = np.zeros((solve.shape[0], time.size))
@@ -518,6 +526,8 @@ def _with_damping(
     sensitivity = sensitivities[0]
     extra = {
         "damping": damping,
+        # what I alpha is fitted to: the torque less the damping and the trial's constant
+        "inertial_torque": net_f - damping * velocity_f - float(coef[2]),
         "deceleration_start": float(time[start]),
         "deceleration_end": float(time[stop - 1]),
         "damping_sensitivity": sensitivities[1],

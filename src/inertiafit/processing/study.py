@@ -59,11 +59,13 @@ from inertiafit.processing.trials import (
     STATUS_NOT_REACHED,
     STATUS_OK,
     STATUS_REFUSED,
+    SWEEP_COLUMNS,
     TRACE_COLUMNS,
     TRIAL_COLUMNS,
     EmgCheck,
     TrialRun,
     relative_file,
+    sweeps_frame,
     traces_frame,
     trial_row,
 )
@@ -78,6 +80,7 @@ __all__ = [
     "PHASE_TOLERANCE",
     "RATE_TOLERANCE",
     "SENSITIVITY_COLUMNS",
+    "SWEEP_COLUMNS",
     "TRACE_COLUMNS",
     "TRIAL_COLUMNS",
     "ProcessedStudy",
@@ -145,6 +148,9 @@ class ProcessedStudy:
     emg_traces : pandas.DataFrame
         The fast trials' EMG envelopes over their rest levels, columns
         :data:`EMG_TRACE_COLUMNS`, for figures; empty without EMG.
+    sweeps : pandas.DataFrame
+        The rigid conditions' quasi-static sweeps as fitted, columns :data:`SWEEP_COLUMNS`
+        (means of consecutive samples), for the figure of the gravity fit.
     """
 
     study: Study
@@ -161,6 +167,7 @@ class ProcessedStudy:
     emg_traces: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=EMG_TRACE_COLUMNS)
     )
+    sweeps: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=SWEEP_COLUMNS))
 
     @property
     def all_trials(self) -> pd.DataFrame:
@@ -511,6 +518,7 @@ def _process(
         living_coupling=living_coupling,
         damping=damping,
         emg_traces=emg.traces() if emg is not None else pd.DataFrame(columns=EMG_TRACE_COLUMNS),
+        sweeps=sweeps_frame(stage.sweeps),
     )
 
 

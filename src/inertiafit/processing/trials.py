@@ -31,7 +31,7 @@ from inertiafit.processing.activity import (
 )
 from inertiafit.processing.emg import mvc_levels
 from inertiafit.processing.filtering import sampling_rate
-from inertiafit.processing.gravity import GravityFit
+from inertiafit.processing.gravity import GravityFit, moving_part
 from inertiafit.processing.inertia import InertiaEstimate
 from inertiafit.processing.living import StaticRecord
 
@@ -48,6 +48,8 @@ __all__ = [
     "STATUS_REFERENCE",
     "STATUS_REFUSED",
     "STATUS_SKIPPED",
+    "SWEEP_COLUMNS",
+    "SWEEP_POINTS",
     "TRACE_COLUMNS",
     "TRACE_POINTS",
     "TRIAL_COLUMNS",
@@ -57,6 +59,8 @@ __all__ = [
     "move_direction",
     "relative_file",
     "static_record",
+    "sweep_trace",
+    "sweeps_frame",
     "traces_frame",
     "trial_row",
 ]
@@ -121,7 +125,10 @@ STATUS_REFERENCE = "reference"
 STATUS_REFUSED, STATUS_NOT_REACHED = "refused", "not reached"
 #: The column ``diagnostics.csv`` adds to those of ``trials.csv``: why a trial was refused.
 DIAGNOSTIC_COLUMN = "cause"
-#: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures.
+#: Columns of ``traces.csv``: the filtered moving part of every fast trial, for figures;
+#: ``inertial_torque`` (N m) is the torque its inertia was fitted to
+#: (:attr:`~inertiafit.processing.inertia.InertiaEstimate.inertial_torque`), signed as the
+#: move (every move plotted as positive).
 TRACE_COLUMNS = [
     "condition",
     "trial",
@@ -131,6 +138,7 @@ TRACE_COLUMNS = [
     "time",
     "velocity",
     "acceleration",
+    "inertial_torque",
 ]
 #: Columns ``traces.csv`` gains when a fast trial was fitted over its deceleration too (a
 #: living body's: the inertia and the viscous damping together): that window's start and end
@@ -138,6 +146,11 @@ TRACE_COLUMNS = [
 DECELERATION_TRACE_COLUMNS = ["deceleration_start", "deceleration_end"]
 #: Points kept of each fast trial's moving part in the figure traces.
 TRACE_POINTS = 600
+#: Columns of ``sweeps.csv``: each rigid condition's quasi-static sweeps as fitted (the move
+#: without its rests), means of consecutive samples, for the figure of the gravity fit.
+SWEEP_COLUMNS = ["condition", "file", "angle", "torque"]
+#: Points kept of each sweep (means of as many consecutive samples as it takes).
+SWEEP_POINTS = 240
 _T = TypeVar("_T")
 
 
@@ -323,6 +336,37 @@ def static_record(spec: TrialSpec, ds: xr.Dataset, base: Path) -> StaticRecord:
     )
 
 
+def sweep_trace(condition: str, file: str, angle, torque) -> dict:
+    """A quasi-static sweep for plotting: the samples its gravity model was fitted to.
+
+    The move without its rests (:func:`~inertiafit.processing.gravity.moving_part`, as the
+    fit takes it), as :data:`SWEEP_POINTS` means of consecutive samples of the angle (rad)
+    and the torque (N m); columns :data:`SWEEP_COLUMNS` as arrays.
+    """
+    theta = np.asarray(angle, dtype=np.float64)
+    tau = np.asarray(torque, dtype=np.float64)
+    fitted = moving_part(theta)
+    theta, tau = theta[fitted], tau[fitted]
+    size = max(1, math.ceil(theta.size / SWEEP_POINTS))
+    n = theta.size // size
+    means = [x[: n * size].reshape(n, size).mean(axis=1) for x in (theta, tau)]
+    return {
+        "condition": np.full(n, condition, dtype=object),
+        "file": np.full(n, file, dtype=object),
+        "angle": means[0],
+        "torque": means[1],
+    }
+
+
+def sweeps_frame(parts: list[dict]) -> pd.DataFrame:
+    """One frame of every sweep (:func:`sweep_trace`), in order (:data:`SWEEP_COLUMNS`)."""
+    if not parts:
+        return pd.DataFrame(columns=SWEEP_COLUMNS)
+    return pd.DataFrame(
+        {c: np.concatenate([p[c] for p in parts]) for c in SWEEP_COLUMNS}, columns=SWEEP_COLUMNS
+    )
+
+
 def move_direction(ds: xr.Dataset) -> int:
     """The direction of a fast move: the sign of its fastest velocity."""
     v = ds["velocity"].values
@@ -332,7 +376,8 @@ def move_direction(ds: xr.Dataset) -> int:
 def fast_trace(condition: str, number: int, time, est: InertiaEstimate, speed: float) -> dict:
     """The moving part of a fast trial for plotting: its filtered velocity and acceleration.
 
-    They are the ones the inertia was estimated from (the same zero-lag filter). Columns
+    They are the ones the inertia was estimated from (the same zero-lag filter), with the
+    torque fitted to them (``inertial_torque``; NaN when the estimate has none). Columns
     (:data:`TRACE_COLUMNS`) as arrays: :func:`traces_frame` makes one frame of all trials (a
     frame per trial, concatenated, costs more than the rest of a fast trial's processing).
     """
@@ -352,6 +397,11 @@ def fast_trace(condition: str, number: int, time, est: InertiaEstimate, speed: f
         "time": time[sl],
         "velocity": sign * v[sl],
         "acceleration": sign * a[sl],
+        "inertial_torque": (
+            sign * np.asarray(est.inertial_torque)[sl]
+            if est.inertial_torque is not None
+            else np.full(n, np.nan)
+        ),
     }
     if est.deceleration_start is not None and est.deceleration_end is not None:
         out["deceleration_start"] = np.full(n, est.deceleration_start)

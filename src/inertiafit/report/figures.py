@@ -198,6 +198,41 @@ def figure_records(result: Result) -> list[FigureRecord]:
                     f"{cond}: filtered velocity and acceleration of the fast trials; {windows}",
                 )
             )
+        if len(result.sweeps):
+            add(
+                FigureRecord(
+                    "gravity-fit",
+                    functools.partial(plots.plot_gravity_fit, result.sweeps, result.trials),
+                    "Trials",
+                    "each quasi-static sweep (dots: means of consecutive samples of the move) "
+                    "against its fitted gravity model M_g sin(θ + φ) + c (line; trials.csv), "
+                    "and the residuals, measured minus fitted: a wave or a trend left in them "
+                    "is what the model does not describe (friction building up at a sweep's "
+                    "start, a cable pulling, drift)",
+                )
+            )
+        for cond, traces in traces_by_condition(result.traces).items():
+            fitted = _with_inertias(traces, result.trials, cond)
+            if not fitted:
+                continue
+            decel = any("deceleration" in t for t in fitted)
+            add(
+                FigureRecord(
+                    f"tau-alpha-{cond}",
+                    functools.partial(plots.plot_tau_alpha, fitted, title=cond),
+                    "Trials",
+                    f"{cond}: each fast trial's torque less its condition's "
+                    + ("static curve, damping and constant" if decel else "gravity model")
+                    + " against its acceleration, over the "
+                    + (
+                        "acceleration window (filled) and the deceleration window (open) "
+                        if decel
+                        else "acceleration window "
+                    )
+                    + "the inertia was fitted over; the line's slope is the trial's inertia "
+                    "(trials.csv)",
+                )
+            )
         emg = result.emg_traces
         for cond, rows in emg.groupby("condition", sort=False) if len(emg) else ():
             excluded = rows.loc[rows["status"] == "excluded", "trial"].nunique()
@@ -240,6 +275,31 @@ def figure_records(result: Result) -> list[FigureRecord]:
             )
         )
     return records
+
+
+def _with_inertias(traces: list[dict], trials: Any, condition: str) -> list[dict]:
+    """A condition's traces with each trial's inertia from ``trials.csv``; ``[]`` if unmatched.
+
+    The traces are the condition's used fast trials in manifest order, as its usable rows of
+    ``trials.csv`` are; each pair must share its acceleration window, or nothing is drawn
+    (a table edited by hand, or one written before the fitted torque was stored).
+    """
+    if not all("inertial_torque" in t for t in traces):
+        return []
+    used = usable_trials(trials)
+    rows = used[(used["kind"] == "fast") & (used["condition"].astype(str) == condition)]
+    if len(rows) != len(traces):
+        return []
+    out = []
+    for trace, (_, row) in zip(traces, rows.iterrows(), strict=True):
+        same = all(
+            abs(float(trace["window"][i]) - float(row[c])) <= 1e-9 * max(1.0, abs(float(row[c])))
+            for i, c in enumerate(("window_start", "window_end"))
+        )
+        if not same:
+            return []
+        out.append({**trace, "inertia": float(row["inertia"])})
+    return out
 
 
 def _lines(result: Result, body: str) -> str:

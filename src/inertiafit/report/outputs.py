@@ -51,7 +51,7 @@ __all__ = [
 ]
 
 #: Files written once, when the posterior is sampled; redrawing a report reads them.
-DATA_FILES = ("posterior.nc", "trials.csv", "traces.csv", "emg_traces.csv")
+DATA_FILES = ("posterior.nc", "trials.csv", "traces.csv", "emg_traces.csv", "sweeps.csv")
 
 
 #: Figures are drawn and saved in up to this many forked processes (Linux; one where fork is
@@ -383,6 +383,8 @@ def write_outputs(
                 write_csv(result.traces, folder / "traces.csv")
             if len(result.emg_traces):  # a study with EMG only
                 write_csv(result.emg_traces, folder / "emg_traces.csv")
+            if len(result.sweeps):  # a rigid condition's sweeps
+                write_csv(result.sweeps, folder / "sweeps.csv")
 
     # One figure at a time per process: drawn, saved, its PNG kept for report.html, let go;
     # the tables and data files are written here while worker processes draw.

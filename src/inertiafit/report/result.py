@@ -17,7 +17,12 @@ import pandas as pd
 
 from inertiafit.inference.priors import Prior
 from inertiafit.posterior import Posterior
-from inertiafit.processing.study import EMG_TRACE_COLUMNS, TRACE_COLUMNS, TRIAL_COLUMNS
+from inertiafit.processing.study import (
+    EMG_TRACE_COLUMNS,
+    SWEEP_COLUMNS,
+    TRACE_COLUMNS,
+    TRIAL_COLUMNS,
+)
 from inertiafit.report.comparison import FIT_COLUMNS, STUDY_COLUMNS, comparison_table
 
 __all__ = ["Result", "make_result", "traces_by_condition"]
@@ -69,6 +74,9 @@ class Result:
     truths : dict of str to dict
         A simulated study's true values per body and quantity (SI units; the demo's
         ``truth.toml``), drawn beside the ideal bodies; empty for measured data.
+    sweeps : pandas.DataFrame
+        The rigid conditions' quasi-static sweeps as fitted (``sweeps.csv``, columns
+        :data:`~inertiafit.processing.study.SWEEP_COLUMNS`); empty when not available.
     """
 
     name: str
@@ -90,6 +98,7 @@ class Result:
         default_factory=lambda: pd.DataFrame(columns=EMG_TRACE_COLUMNS)
     )
     truths: dict[str, dict[str, float]] = field(default_factory=dict)
+    sweeps: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=SWEEP_COLUMNS))
 
     def summary(self, hdi_prob: float | None = None) -> pd.DataFrame:
         """The posterior's summary; a living body's joint parameters as rows of that body.
@@ -177,6 +186,7 @@ def make_result(
     living: Mapping[str, pd.DataFrame] | None = None,
     emg_traces: pd.DataFrame | None = None,
     truths: Mapping[str, Mapping[str, float]] | None = None,
+    sweeps: pd.DataFrame | None = None,
 ) -> Result:
     """Assemble a :class:`Result` and its comparison table (nothing else is computed)."""
     ideals_ = {k: dict(v) for k, v in (ideals or {}).items()}
@@ -210,6 +220,7 @@ def make_result(
         if emg_traces is not None
         else pd.DataFrame(columns=EMG_TRACE_COLUMNS),
         truths={k: dict(v) for k, v in (truths or {}).items()},
+        sweeps=sweeps if sweeps is not None else pd.DataFrame(columns=SWEEP_COLUMNS),
     )
 
 
@@ -217,7 +228,9 @@ def traces_by_condition(traces: pd.DataFrame) -> dict[str, list[dict]]:
     """The trace table as one list per condition of one dict per trial.
 
     The shape :func:`~inertiafit.report.plots.plot_fast_trials` draws; a trial fitted over its
-    deceleration too (a living body's) has its ``deceleration`` window, ``(start, end)`` (s).
+    deceleration too (a living body's) has its ``deceleration`` window, ``(start, end)`` (s);
+    one whose fitted torque was stored (``inertial_torque``, a ``traces.csv`` written since
+    it exists) has it too.
     """
     out: dict[str, list[dict]] = {}
     for (cond, _), rows in traces.groupby(["condition", "trial"], sort=False):
@@ -228,6 +241,8 @@ def traces_by_condition(traces: pd.DataFrame) -> dict[str, list[dict]]:
             "window": (float(rows["window_start"].iloc[0]), float(rows["window_end"].iloc[0])),
             "speed": float(rows["speed"].iloc[0]),
         }
+        if "inertial_torque" in rows and rows["inertial_torque"].notna().any():
+            trace["inertial_torque"] = rows["inertial_torque"].to_numpy(float)
         if "deceleration_start" in rows and "deceleration_end" in rows:
             start = float(rows["deceleration_start"].iloc[0])
             end = float(rows["deceleration_end"].iloc[0])

@@ -38,8 +38,9 @@ class Stage:
 
     The handlers read and fill it: ``run`` (rows, notes, skips), the conditions' quasi-static
     fits (``qs_fits``; a rigid sweep away from its condition's fast trials in
-    ``rotation_fits``, by posture), a living condition's static records, and after the
-    gravity models (``gravity``, ``statics``) the fast trials' estimates and traces.
+    ``rotation_fits``, by posture), a living condition's static records, a rigid sweep's samples as
+    fitted (``sweeps``), and after the gravity models (``gravity``, ``statics``) the fast
+    trials' estimates and traces.
     """
 
     study: Study
@@ -57,6 +58,7 @@ class Stage:
     statics: LivingStatics | None = None
     fast_estimates: list[tuple[TrialSpec, InertiaEstimate]] = field(default_factory=list)
     traces: list[dict] = field(default_factory=list)
+    sweeps: list[dict] = field(default_factory=list)
 
     @property
     def rows(self) -> dict[int, dict]:

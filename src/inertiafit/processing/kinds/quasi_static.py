@@ -9,7 +9,13 @@ from typing import TYPE_CHECKING
 from inertiafit.processing.gravity import fit_gravity
 from inertiafit.processing.kinds.base import Stage, register_kind
 from inertiafit.processing.plausibility import check_quasi_static_sweep
-from inertiafit.processing.trials import LIVING_ROW_FLAG, static_record, trial_row
+from inertiafit.processing.trials import (
+    LIVING_ROW_FLAG,
+    relative_file,
+    static_record,
+    sweep_trace,
+    trial_row,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -74,6 +80,10 @@ class QuasiStatic:
         stage.rows[spec.index] = trial_row(study, spec, gravity=fit, reader=run.reader_flags(spec))
         if living:
             stage.records.append(static_record(spec, fitted, study.base_dir))
+        else:  # its samples beside its fit: the figure of the gravity fit and its residuals
+            file = relative_file(spec.file, study.base_dir)
+            angle, torque = fitted["angle"].values, fitted["torque"].values
+            stage.sweeps.append(sweep_trace(spec.condition, file, angle, torque))
 
     def after_gravity(self, stage: Stage, trials: list[tuple[TrialSpec, xr.Dataset]]) -> None:
         """Nothing: the study combines the sweeps' fits into its gravity models."""

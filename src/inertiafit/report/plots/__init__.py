@@ -2,7 +2,9 @@
 
 One module per kind of figure: :mod:`~inertiafit.report.plots.intervals` (every body's
 quantities against their prior, the report's first figure),
-:mod:`~inertiafit.report.plots.trials` (fast trials, inertia by speed), :mod:`~inertiafit.report.plots.identification` (the identification curve),
+:mod:`~inertiafit.report.plots.trials` (fast trials, inertia by speed),
+:mod:`~inertiafit.report.plots.fits` (each fast trial's ``tau``-``alpha`` line, each sweep's
+gravity model and residuals), :mod:`~inertiafit.report.plots.identification` (the identification curve),
 :mod:`~inertiafit.report.plots.diagnostics` (traces, rank plots),
 :mod:`~inertiafit.report.plots.emg` (EMG envelopes against their thresholds),
 :mod:`~inertiafit.report.plots.living` (a living joint's passive curve, static fit and fast
@@ -35,6 +37,7 @@ from inertiafit.plotting.style import (
 from inertiafit.report.plots.corner import plot_joint_corner
 from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
 from inertiafit.report.plots.emg import plot_emg_envelopes
+from inertiafit.report.plots.fits import gravity_model, plot_gravity_fit, plot_tau_alpha
 from inertiafit.report.plots.identification import CURVE_PAIRS, plot_identification_curve
 from inertiafit.report.plots.intervals import VERDICT_STYLE, interval_table, plot_intervals
 from inertiafit.report.plots.living import (
@@ -58,10 +61,12 @@ __all__ = [
     "check_formats",
     "corner_figure",
     "figure_width",
+    "gravity_model",
     "interval_table",
     "new_figure",
     "plot_emg_envelopes",
     "plot_fast_trials",
+    "plot_gravity_fit",
     "plot_identification_curve",
     "plot_inertia_by_speed",
     "plot_intervals",
@@ -70,6 +75,7 @@ __all__ = [
     "plot_passive_curve",
     "plot_rank",
     "plot_static_fit",
+    "plot_tau_alpha",
     "plot_trace",
     "rank_groups",
     "save_figure",
