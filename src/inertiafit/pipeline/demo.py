@@ -28,12 +28,70 @@ from inertiafit.simulate import paper_study, rigid_view, simulate_living_study
 
 __all__ = [
     "DEMO_IDEALS",
+    "DEMO_INDEX",
     "paper_cases",
     "run_demo",
     "run_living_demo",
     "run_paper_demo",
     "simulated_truths",
+    "write_demo_index",
 ]
+
+#: The demo's results that ``index.html`` links, in its order: (path in the output folder,
+#: title, the one line saying what it shows). A CSV is also shown as a table on the page.
+DEMO_INDEX: tuple[tuple[str, str, str], ...] = (
+    (
+        "report.html",
+        "Rigid study: the paper's experiment simulated",
+        (
+            "62 simulated trials of the Biodex elbow attachment alone and with a 3 kg disk: the "
+            "joint posterior of both bodies beside the simulation's truth, the ideal bodies and "
+            "the paper's multi-start estimator."
+        ),
+    ),
+    (
+        "paper-numbers/attachment/report.html",
+        "Paper numbers: the attachment",
+        (
+            "Son et al.'s published attachment (Table 2: I = 0.216 ± 0.017 kg m², 30 trials) "
+            "fitted from its numbers alone."
+        ),
+    ),
+    (
+        "paper-numbers/disk/report.html",
+        "Paper numbers: the 3 kg disk",
+        (
+            "Son et al.'s published disk (Table 3, its inertia by subtraction) fitted from its "
+            "numbers alone."
+        ),
+    ),
+    (
+        "information/information.csv",
+        "Information: a weighed mass and a de Leva prior",
+        (
+            "How many times narrower the intervals of m, x and rho get when the disk is weighed, "
+            "and for a simulated forearm + hand with a de Leva (1996) prior and the attachment "
+            "weighed."
+        ),
+    ),
+    (
+        "living/report.html",
+        "Living forearm: the living model's report",
+        (
+            "A simulated forearm on a living elbow (passive moments, damping, two postures) "
+            "analysed with its joint: the full report."
+        ),
+    ),
+    (
+        "living/living.csv",
+        "Living forearm: rigid model against living model",
+        (
+            "The forearm's I and M_g from today's rigid model (one posture, one sweep) and from "
+            "the living model, against the simulation's truth: each one's error and whether its "
+            "interval covers the truth."
+        ),
+    ),
+)
 
 
 def simulated_truths(study_dir: Path) -> dict[str, dict[str, float]]:
@@ -165,13 +223,56 @@ def run_demo(
         echo("=" * 100)
         run_living_demo(folder / "living", seed=seed, hdi_prob=hdi_prob, echo=echo, say=say)
         echo("")
+        write_demo_index(folder)
     echo(
-        f"wrote {out}/: report.html, methods.md, references.bib, summary, comparison, "
+        f"wrote {out}/: index.html (every result below, linked), report.html, methods.md, references.bib, summary, comparison, "
         "speed_effect and trials tables (.csv/.md/.tex), posterior.nc, figures; study/ "
         "(simulated trials, truth.toml); paper-numbers/ (report.html each); "
         "information/ (information.csv, forearm-study/); living/ (a living forearm's run, "
         "living.csv)"
     )
+
+
+def write_demo_index(folder: Path) -> Path:
+    """``folder/index.html``: every result of :data:`DEMO_INDEX` the demo wrote, linked.
+
+    Each link is relative to ``folder`` and comes with its line; a CSV is shown as a table
+    too. A result that is not there (a demo stopped early) is left out, so that every link
+    on the page opens a file. Returns the page's path.
+    """
+    import html
+
+    import pandas as pd
+
+    items = []
+    for path, title, line in DEMO_INDEX:
+        target = folder / path
+        if not target.is_file():
+            continue
+        item = (
+            f"<li><a href='{html.escape(path, quote=True)}'>{html.escape(title)}</a> "
+            f"<code>{html.escape(path)}</code><br>{html.escape(line)}"
+        )
+        if target.suffix == ".csv":
+            table = pd.read_csv(target)
+            item += table.to_html(index=False, float_format=lambda v: f"{v:.4g}", border=0)
+        items.append(item + "</li>")
+    page = (
+        "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+        "<title>inertiafit demo</title><style>"
+        "body{font-family:system-ui,sans-serif;max-width:60rem;margin:2rem auto;"
+        "padding:0 1rem;line-height:1.4}li{margin-bottom:1.2rem}"
+        "table{border-collapse:collapse;font-size:0.85rem;margin-top:0.4rem;display:block;"
+        "overflow-x:auto}th,td{padding:0.15rem 0.5rem;text-align:right}"
+        "th{border-bottom:1px solid #888}</style></head><body>"
+        "<h1>inertiafit demo</h1><p>What <code>inertiafit demo</code> wrote, one result a "
+        "line; the simulated trial files are in <code>study/</code>.</p>"
+        f"<ul>{''.join(items)}</ul></body></html>\n"
+    )
+    index = folder / "index.html"
+    index.write_text(page, encoding="utf-8")
+    return index
 
 
 def run_living_demo(
