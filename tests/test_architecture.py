@@ -67,12 +67,13 @@ def _type_checking_nodes(tree: ast.AST) -> set[int]:
     return inside
 
 
-def _imports(name: str) -> list[tuple[str, str]]:
-    """``(module imported, name imported)`` for every runtime import of ``name``'s source."""
+def _imports(name: str, typing: bool = False) -> list[tuple[str, str]]:
+    """``(module imported, name imported)`` for every runtime import of ``name``'s source
+    (with ``typing``, the imports for type checkers only too)."""
     path = MODULES[name]
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     tree = ast.parse(path.read_text(encoding="utf-8"))
-    skip = _type_checking_nodes(tree)
+    skip = set() if typing else _type_checking_nodes(tree)
     out = []
     for node in ast.walk(tree):
         if id(node) in skip:
@@ -100,10 +101,10 @@ def _target(base: str, imported: str) -> str:
     return full if full in MODULES else base
 
 
-def _graph() -> dict[str, set[str]]:
+def _graph(typing: bool = False) -> dict[str, set[str]]:
     graph: dict[str, set[str]] = {}
     for name in MODULES:
-        targets = {_target(b, i) for b, i in _imports(name)}
+        targets = {_target(b, i) for b, i in _imports(name, typing)}
         # A package's __init__ only re-exports; the import of its submodule is the edge.
         graph[name] = {t for t in targets if t in MODULES and t != name}
     return graph
@@ -154,10 +155,14 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
-def test_no_import_cycle_not_even_through_function_level_imports():
+@pytest.mark.parametrize("typing", [False, True], ids=["runtime", "type-checking too"])
+def test_no_import_cycle_not_even_through_function_level_imports(typing):
+    """Type checkers' imports count too (issue 35): a module that names another's class for
+    its annotations while that one imports it is a circle all the same; a Protocol of what it
+    reads breaks it (``inference.terms.base.ModelView``, ``posterior.display.PosteriorView``)."""
     graph = {
         m: {t for t in targets if MODULES[t].name != "__init__.py"}
-        for m, targets in _graph().items()
+        for m, targets in _graph(typing).items()
         if MODULES[m].name != "__init__.py"
     }
     assert _cycles(graph) == []

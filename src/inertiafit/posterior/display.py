@@ -11,14 +11,59 @@ import html
 import json
 import math
 from collections import Counter
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from inertiafit.formatting import interval, plural
 from inertiafit.physics import UNITS
 from inertiafit.posterior import pins
 
-if TYPE_CHECKING:
-    from inertiafit.posterior.core import Posterior
+if TYPE_CHECKING:  # third-party types only: nothing of this package
+    import pandas as pd
+    import xarray as xr
+
+
+class PosteriorView(Protocol):
+    """What the display reads of a :class:`~inertiafit.posterior.Posterior`.
+
+    Named here rather than imported: the posterior imports its display.
+    """
+
+    tree: xr.DataTree
+    bodies: tuple[str, ...]
+
+    @property
+    def converged(self) -> bool:
+        """Whether the sampler met every convergence criterion."""
+        ...
+
+    def calibration_note(self) -> str:
+        """One line on the torque calibration's uncertainty."""
+        ...
+
+    def conflict_warnings(self) -> list[str]:
+        """One line per quantity in prior-data conflict."""
+        ...
+
+    def correlations(self) -> pd.DataFrame:
+        """Posterior correlations of ``m``, ``x`` and ``rho``."""
+        ...
+
+    def identification(self) -> pd.DataFrame:
+        """Who decides each quantity."""
+        ...
+
+    def prior_predictive(self) -> pd.DataFrame:
+        """Each measured quantity against its prior predictive."""
+        ...
+
+    def summary(self, hdi_prob: float = 0.95) -> pd.DataFrame:
+        """A row per body and parameter."""
+        ...
+
+    def what_pins_what(self) -> dict[str, str]:
+        """One line per body naming what pins each quantity."""
+        ...
+
 
 __all__ = [
     "correlation_text",
@@ -46,7 +91,7 @@ def measured_line(tree, body: str, minimum_mass: float) -> str:
     return f"{body}: the data measure none of its parameters: every interval is its prior's"
 
 
-def table_rows(post: Posterior, hdi_prob: float) -> list[dict[str, Any]]:
+def table_rows(post: PosteriorView, hdi_prob: float) -> list[dict[str, Any]]:
     """Summary rows with who identifies each quantity.
 
     Adds ``identified_by``, ``sd_ratio`` and ``prior_share`` of :meth:`Posterior.identification`.
@@ -71,7 +116,7 @@ def share_text(value: float) -> str:
     return f"{0.0 if abs(value) < 0.005 else value:.2f}"
 
 
-def predictive_text(post: Posterior) -> str:
+def predictive_text(post: PosteriorView) -> str:
     """One line: each measured quantity's prior-predictive tail probability, conflicts marked.
 
     Empty when nothing is measured (:meth:`Posterior.prior_predictive`).
@@ -93,7 +138,7 @@ def predictive_text(post: Posterior) -> str:
     )
 
 
-def correlation_text(post: Posterior) -> list[str]:
+def correlation_text(post: PosteriorView) -> list[str]:
     """One line per body: the posterior correlations of m, x and rho."""
     return [
         f"{r.body}: posterior correlations m-x {r.corr_m_x:+.2f}, m-rho {r.corr_m_rho:+.2f}, "
@@ -102,7 +147,7 @@ def correlation_text(post: Posterior) -> list[str]:
     ]
 
 
-def trial_counts(post: Posterior) -> str | None:
+def trial_counts(post: PosteriorView) -> str | None:
     """One line counting a study's trials by what became of them; ``None`` without trials.
 
     From the trials table a study's posterior keeps in its ``inputs`` (``inertiafit run``):
@@ -134,7 +179,7 @@ def trial_counts(post: Posterior) -> str | None:
     return "; ".join(parts) + " (trials.csv says which and why)"
 
 
-def text_report(post: Posterior, hdi_prob: float = 0.95) -> str:
+def text_report(post: PosteriorView, hdi_prob: float = 0.95) -> str:
     """Readable text: the table with intervals, who identifies what, diagnostics."""
     a = post.tree.attrs
     pct = f"{100 * hdi_prob:g}% HDI"
@@ -190,7 +235,7 @@ _HTML_HEAD = (
 )
 
 
-def html_table(post: Posterior, hdi_prob: float = 0.95) -> str:
+def html_table(post: PosteriorView, hdi_prob: float = 0.95) -> str:
     """An HTML table of the summary with who identifies what (the Jupyter display)."""
     head = "".join(f"<th>{h}</th>" for h in _HTML_HEAD).replace(
         "95% HDI", f"{100 * hdi_prob:g}% HDI"

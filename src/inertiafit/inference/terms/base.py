@@ -22,12 +22,9 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from inertiafit.inference.model import Model
 
 __all__ = [
     "CORE_SDS",
@@ -36,6 +33,7 @@ __all__ = [
     "CurvePiece",
     "Datum",
     "MethodsText",
+    "ModelView",
     "Point",
     "Source",
     "Term",
@@ -49,12 +47,34 @@ WINDOW_TAIL = 1e-8
 CORE_SDS = 8.0
 
 
+class ModelView(Protocol):
+    """What a term reads of the model (:class:`~inertiafit.inference.model.Model` is one).
+
+    Named here rather than imported, so that the terms do not import the model that imports
+    them (not even for type checking).
+    """
+
+    bodies: tuple[str, ...]
+
+    def split(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The bodies' observed-scale ``(a, b)`` and the rest at rows ``z``."""
+        ...
+
+    def true_identified(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The bodies' true ``(a, b)`` at rows ``z``."""
+        ...
+
+    def log_gain(self, z: np.ndarray) -> np.ndarray:
+        """The log torque gain at rows ``z``."""
+        ...
+
+
 class Point:
     """Where terms are evaluated: rows ``z`` of a model's sampled coordinates.
 
     Parameters
     ----------
-    model : Model
+    model : ModelView
         The model (its ``bodies``, ``split``, ``true_identified`` and ``log_gain``).
     z : ndarray
         Rows of its sampled coordinates, ``(..., ndim)``.
@@ -71,7 +91,7 @@ class Point:
     ``(m, x, rho)`` is :meth:`parameters`.
     """
 
-    def __init__(self, model: Model, z, total_a, total_b, mass=None) -> None:
+    def __init__(self, model: ModelView, z, total_a, total_b, mass=None) -> None:
         self.model = model
         self.z = z
         self.total_a = total_a

@@ -13,11 +13,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from inertiafit import physics
+from inertiafit.inference.observations import Observation
 from inertiafit.inference.terms.base import (
     CORE_SDS,
     WINDOW_TAIL,
@@ -31,8 +32,44 @@ from inertiafit.inference.terms.base import (
 )
 from inertiafit.physics import UNITS
 
-if TYPE_CHECKING:
-    from inertiafit.inference.model import Condition
+
+class ConditionView(Protocol):
+    """What the term reads of its :class:`~inertiafit.inference.model.Condition`.
+
+    Named here rather than imported: the model imports the terms.
+    """
+
+    @property
+    def bodies(self) -> tuple[str, ...]: ...
+
+    @property
+    def label(self) -> str: ...
+
+    @property
+    def offset_body(self) -> str: ...
+
+    @property
+    def offset(self) -> float: ...
+
+    @property
+    def inertia(self) -> Observation | None: ...
+
+    @property
+    def gravity_moment(self) -> Observation | None: ...
+
+    @property
+    def coupling(self) -> float: ...
+
+    @property
+    def added_first_moment(self) -> float: ...
+
+    @property
+    def added_inertia(self) -> float: ...
+
+    def inertia_at(self, inertia: Any, gravity_moment: Any) -> Any:
+        """Where the inertia evidence is evaluated for true totals ``I`` and ``M_g``."""
+        ...
+
 
 __all__ = ["ConditionEvidence"]
 
@@ -50,7 +87,7 @@ class ConditionEvidence:
     """The evidence of ``condition``, column ``index`` of the totals, under ``gravity``."""
 
     index: int
-    condition: Condition
+    condition: ConditionView
     gravity: float
     kind: ClassVar[str] = "condition"
     VARIABLES: ClassVar[tuple[str, ...]] = ("inertia", "gravity_moment")
