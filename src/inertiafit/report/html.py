@@ -46,6 +46,7 @@ __all__ = [
     "Heading",
     "anchors",
     "conflict_items",
+    "derived_items",
     "figure_png",
     "figure_png_base64",
     "prior_items",
@@ -422,6 +423,7 @@ def study_report(
                     for body in post.bodies
                 ),
                 post.calibration_note(),
+                *derived_items(result, hdi_prob),
             ],
         ),
         (
@@ -613,6 +615,52 @@ PRIOR_SHARE_NOTE = (
     f"{SHARE_NOTE}. The box is shrunk about its centre; power-scaling, as arviz-stats psense "
     "does, leaves a box unchanged, so 'psense prior' is blank for a box."
 )
+
+
+def derived_items(result: Result, hdi_prob: float) -> list:
+    """``I_com``, the parameters relative to the subject, the published tables beside them.
+
+    One fold of the "Posterior" section, so that its first screen stays the answer.
+    """
+    from inertiafit.report.derived import body_sizes, derived_table, published_table
+
+    post = result.posterior
+    mass, lengths, sex = body_sizes(post)
+    derived = derived_table(post, hdi_prob, body_mass=mass, segment_lengths=lengths)
+    pct = f"{100 * hdi_prob:g}%"
+    items: list = [
+        (
+            f"Derived from the draws (median and {pct} HDI): the moment of inertia about the "
+            "centre of mass, I_com = m rho^2"
+            + (
+                "; m as % of the subject's body mass and x, rho as % of the segment length "
+                "the manifest gives"
+                if mass is not None or lengths
+                else " (the manifest's [subject] body_mass and a body's segment_length add "
+                "m as % body mass and x, rho as % segment length)"
+            )
+            + "."
+        ),
+        derived.rename(columns=lambda c: c.replace("_", " ")),
+    ]
+    published = published_table(
+        post, gravity=result.gravity, body_mass=mass, segment_lengths=lengths, sex=sex
+    )
+    if len(published):
+        items += [
+            (
+                "The published tables' predictions for this subject's segment beside the "
+                "posterior: percent of median = 100 (table / posterior median - 1); posterior "
+                "SDs = (table - median) / posterior SD."
+            ),
+            published.rename(columns=lambda c: c.replace("_", " ")),
+        ]
+    said = ["I about the centre of mass"]
+    if mass is not None or lengths:
+        said.append("% body mass and % segment length")
+    if len(published):
+        said.append("the published tables beside the posterior")
+    return [Details("Derived: " + ", ".join(said), items)]
 
 
 def conflict_items(post) -> list[str]:
