@@ -51,7 +51,7 @@ IN_TARGET = 8
 
 def _old_and_plain(angle: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The covariance before issue 12 (OLS x tau_int, whole trial) and the plain OLS one."""
-    from inertiafit.processing.gravity import integrated_autocorrelation_time
+    from inertiafit.stats import integrated_autocorrelation_time
 
     design = np.column_stack([np.sin(angle), np.cos(angle), np.ones_like(angle)])
     coef, *_ = np.linalg.lstsq(design, torque, rcond=None)

@@ -133,7 +133,7 @@ def stage_profile(manifest: Path) -> list[dict]:
         "  lag (estimate_lag)": ("lag.py", ("estimate_lag",)),
         "  SE from the noise model (W Sigma W')": ("inertia.py", ("_noise_covariance",)),
         "  find_window_arrays": ("window.py", ("find_window", "find_window_arrays")),
-        "  integrated_autocorrelation_time": ("gravity.py", ("integrated_autocorrelation_time",)),
+        "  integrated_autocorrelation_time": ("stats.py", ("integrated_autocorrelation_time",)),
         "fast_trial_flags (plausibility)": ("plausibility.py", ("fast_trial_flags",)),
         "cruise_slope (the gravity model's scale)": ("plausibility.py", ("cruise_slope",)),
     }

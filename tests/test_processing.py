@@ -17,12 +17,12 @@ from inertiafit.processing import (
     find_window,
     fit_gravity,
     fit_gravity_arrays,
-    integrated_autocorrelation_time,
     lowpass,
     lowpass_array,
 )
 from inertiafit.processing.inertia import saturated_run
 from inertiafit.simulate import FT_LBF, PAPER_TRUTH, Noise, simulate_study, simulate_trial
+from inertiafit.stats import integrated_autocorrelation_time
 
 DEG = math.pi / 180
 ATTACHMENT = PAPER_TRUTH["attachment"]

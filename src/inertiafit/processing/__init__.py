@@ -31,10 +31,8 @@ from inertiafit.processing.filtering import lowpass, lowpass_array, sampling_rat
 from inertiafit.processing.gravity import (
     GravityFit,
     TorqueNoise,
-    effective_sample_size,
     fit_gravity,
     fit_gravity_arrays,
-    integrated_autocorrelation_time,
 )
 from inertiafit.processing.inertia import InertiaEstimate, estimate_inertia
 from inertiafit.processing.lag import LagEstimate, estimate_lag
@@ -49,7 +47,6 @@ __all__ = [
     "LagEstimate",
     "ProcessedStudy",
     "TorqueNoise",
-    "effective_sample_size",
     "emg_activity",
     "emg_envelope",
     "estimate_inertia",
@@ -57,7 +54,6 @@ __all__ = [
     "find_window",
     "fit_gravity",
     "fit_gravity_arrays",
-    "integrated_autocorrelation_time",
     "lowpass",
     "lowpass_array",
     "mvc_levels",

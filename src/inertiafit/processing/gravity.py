@@ -58,7 +58,6 @@ from inertiafit.errors import InputError
 from inertiafit.processing.filtering import sampling_rate, source_of
 
 __all__ = [
-    "BATCHES",
     "FRICTION_ANGLES",
     "FRICTION_FLAG",
     "FRICTION_PRIOR_NONE",
@@ -77,11 +76,9 @@ __all__ = [
     "GravityFit",
     "GravityRegression",
     "TorqueNoise",
-    "effective_sample_size",
     "fit_gravity",
     "fit_gravity_arrays",
     "gravity_regression",
-    "integrated_autocorrelation_time",
     "moving_part",
     "pooled_noise",
     "steady_angle",
@@ -100,8 +97,6 @@ MIN_RANGE = 30.0
 REFUSE_RANGE = 2.0
 #: Fewest samples of a quasi-static fit.
 MIN_SAMPLES = 20
-#: Number of batches of the batch-means estimate of the autocorrelation time.
-BATCHES = 1000
 #: Number of batches the residuals are summed over for the noise model's likelihood.
 NOISE_BATCHES = 500
 #: The noise model is fitted to the lowest frequencies of the batch sums only, this fraction
@@ -233,73 +228,6 @@ class GravityFit:
         """Gravity-model torque ``M_g sin(theta + phi) + c`` (N m) at ``angle`` (rad)."""
         theta = np.asarray(angle, dtype=np.float64)
         return self.gravity_moment * np.sin(theta + self.gravity_phase) + self.offset
-
-
-def _geyer(x: NDArray) -> float:
-    """Integrated autocorrelation time by Geyer's initial monotone sequence (see below)."""
-    n = x.size
-    x = x - x.mean()
-    var = float(x @ x)
-    if n < 4 or var == 0.0:
-        return 1.0
-    size = 1 << (2 * n - 1).bit_length()
-    f = np.fft.rfft(x, size)
-    acf = np.fft.irfft(f * np.conj(f), size)[:n] / var
-    pairs = acf[: 2 * (n // 2)].reshape(-1, 2).sum(axis=1)
-    negative = pairs < 0
-    stop = int(np.argmax(negative)) if negative.any() else pairs.size
-    pairs = np.minimum.accumulate(pairs[: max(stop, 1)])
-    return max(2.0 * float(pairs.sum()) - 1.0, 1.0)
-
-
-def integrated_autocorrelation_time(x: ArrayLike, *, batches: int = BATCHES) -> float:
-    """Integrated autocorrelation time ``tau_int = 1 + 2 sum_k rho_k`` of a series.
-
-    ``n / tau_int`` is the number of independent samples the series is worth: the variance of
-    its mean is ``var(x) tau_int / n``.
-
-    Geyer's initial monotone sequence estimator (Geyer 1992; the one ArviZ uses for MCMC
-    chains) sums the autocorrelation (by FFT) in pairs ``rho_2k + rho_2k+1``, up to the first
-    negative pair, each pair capped by the one before. On its own it stops far too early when
-    white noise hides a slow drift of small amplitude and long correlation time (0.4 N m white
-    noise over a 0.03 N m drift: it finds a third of the true ``tau_int``). So the series is
-    first cut into ``batches`` batches of ``L`` samples: averaging removes the white part, the
-    drift dominates the batch means, and ``tau_int = L var(batch means) tau_means / var(x)``,
-    with ``tau_means`` Geyer's estimate on the batch means. On 90 000 samples this is within
-    5 % of the true value for white noise, AR(1) with correlation 0.95 and 0.995, and the
-    drift-under-noise mixture. Series shorter than ``2 batches`` samples use Geyer's estimator
-    alone. (The fast trials' inertia uses it; the gravity fit has its own noise model.)
-
-    Parameters
-    ----------
-    x : array_like[nsamples]
-        The series (its mean is removed).
-    batches : int
-        Number of batches.
-
-    Returns
-    -------
-    float
-        ``tau_int`` in ``[1, nsamples]`` (1 for white noise).
-    """
-    x = np.asarray(x, dtype=np.float64)
-    n = x.size
-    x = x - x.mean()
-    var = float(x @ x) / max(n - 1, 1)
-    if n < 4 or var == 0.0:
-        return 1.0
-    length = n // batches
-    if length < 2:
-        return min(_geyer(x), float(n))
-    means = x[: batches * length].reshape(batches, length).mean(axis=1)
-    tau = length * float(np.var(means, ddof=1)) / var * _geyer(means)
-    return float(min(max(tau, 1.0), n))
-
-
-def effective_sample_size(x: ArrayLike) -> float:
-    """Number of independent samples a correlated series is worth, ``n / tau_int``."""
-    x = np.asarray(x)
-    return x.size / integrated_autocorrelation_time(x)
 
 
 #: Second differences of white noise have variance 6 sigma^2; the MAD of a Normal is 0.6745 SD.

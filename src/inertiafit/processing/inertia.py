@@ -52,12 +52,12 @@ from inertiafit.processing.filtering import (
 from inertiafit.processing.gravity import (
     GravityFit,
     TorqueNoise,
-    integrated_autocorrelation_time,
     white_level,
 )
 from inertiafit.processing.lag import LAG_BOUNDS, advance, estimate_lag
 from inertiafit.processing.living import StaticCurve
 from inertiafit.processing.window import LEVEL, MIN_SPEED_CHANGE, TOLERANCE, find_window_arrays
+from inertiafit.stats import integrated_autocorrelation_time
 
 __all__ = [
     "LAG_SOURCES",

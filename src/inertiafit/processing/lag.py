@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import fft, optimize
 
 from inertiafit.io.manifest import Calibration
-from inertiafit.processing.gravity import integrated_autocorrelation_time
+from inertiafit.stats import integrated_autocorrelation_time
 
 __all__ = [
     "GRID_STEP",

@@ -70,13 +70,12 @@ from inertiafit.passive import literature_curve
 from inertiafit.processing.gravity import (
     GravityFit,
     TorqueNoise,
-    integrated_autocorrelation_time,
     moving_part,
     pooled_noise,
     steady_angle,
     sweep_noise,
 )
-from inertiafit.stats import inverse_variance_mean, shared_error
+from inertiafit.stats import integrated_autocorrelation_time, inverse_variance_mean, shared_error
 
 __all__ = [
     "CURVE_COLUMNS",
