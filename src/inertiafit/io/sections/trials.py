@@ -524,9 +524,8 @@ def _trial(
 
     kind = entry.get("kind")
     if kind not in KINDS:
-        raise fail(
-            f"{here}.kind", f'expected "quasi-static", "fast", "rest" or "mvc", got {kind!r}'
-        )
+        *most, last = (f'"{k}"' for k in KINDS)  # every kind, one added included
+        raise fail(f"{here}.kind", f"expected {', '.join(most)} or {last}, got {kind!r}")
     if kind == "rest" and (not living or living not in bodies):
         held = f"the living body '{living}'" if living else "a living body (none is)"
         raise fail(
