@@ -25,16 +25,10 @@ kind = "quasi-static"
 
 
 def test_the_registry_holds_the_tables_in_reading_order():
-    assert list(SECTIONS) == [
-        "bodies",
-        "calibration",
-        "passive",
-        "postures",
-        "emg",
-        "subject",
-        "defaults",
-        "trials",
-    ]
+    # the study's tables, in this order among any others a recipe registers
+    shipped = ["bodies", "calibration", "passive", "postures", "emg", "subject", "defaults",
+               "trials"]  # fmt: skip
+    assert [name for name in SECTIONS if name in shipped] == shipped
     assert set(SECTIONS) <= set(TOP_KEYS)
     for name, section in SECTIONS.items():
         module = section.read.__module__
