@@ -18,10 +18,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from inertiafit import SamplerSettings, fit_body
 from inertiafit.cli import main
 from inertiafit.errors import InputError
-from inertiafit.inference.priors import anthropometric_prior
 from inertiafit.posterior import open_posterior
 from inertiafit.report import export
 from inertiafit.report.export import available_formats, export_format, register_format
@@ -45,15 +43,10 @@ def write_toy(model: ExportModel) -> str:
 '''
 
 
-@pytest.fixture(scope="module")
-def results(tmp_path_factory) -> Path:
-    folder = tmp_path_factory.mktemp("results")
-    prior = anthropometric_prior("de-leva-male", "forearm", 75.0, 0.27, name="forearm")
-    post = fit_body(prior, inertia=0.025, inertia_se=0.0005, gravity_moment=1.5,
-                    gravity_moment_se=0.02, seed=3,
-                    settings=SamplerSettings(ess_min=100, chunk=100))  # fmt: skip
-    post.save(folder / "posterior.nc")
-    return folder
+@pytest.fixture
+def results(disk_fit) -> Path:
+    """conftest's ``disk_fit``: ``inertiafit fit`` on the paper's disk (read only)."""
+    return disk_fit
 
 
 @pytest.fixture
@@ -78,16 +71,16 @@ def test_a_new_format_is_one_module_and_runs_end_to_end(results, toy, tmp_path, 
     assert toy in available_formats()
     out = tmp_path / "out"
     code = main(["export", str(results), "--format", toy, "--out", str(out), "--draws", "2",
-                 "--seed", "3", "--phase", "30"])  # fmt: skip
+                 "--seed", "3", "--phase", "30", "--radii", "disk-3kg=0.04,0.04"])  # fmt: skip
     assert code == 0
     assert "model.toy (posterior medians)" in capsys.readouterr().out
     post = open_posterior(results / "posterior.nc")
-    mass = post.draws("forearm", "mass").reshape(-1)
-    x = post.draws("forearm", "com_distance").reshape(-1)
+    mass = post.draws("disk-3kg", "mass").reshape(-1)
+    x = post.draws("disk-3kg", "com_distance").reshape(-1)
     name, m, cx, cy, cz, phase = (
         (out / "model.toy").read_text(encoding="utf-8").split("\n")[1].split()
     )
-    assert name == "forearm"
+    assert name == "disk-3kg"
     assert float(m) == float(np.median(mass))
     assert (float(cx), float(cy), float(cz)) == (float(np.median(x)), 0.0, 0.0)
     assert float(phase) == pytest.approx(np.radians(30.0), abs=1e-15)
