@@ -40,6 +40,10 @@ import pytest
 # the tests read, also where the locale is ASCII and Python's UTF-8 mode is off (CI:
 # ``PYTHONUTF8=0 LC_ALL=C``). What such a terminal shows instead: test_cli.py.
 os.environ["PYTHONIOENCODING"] = "utf-8"
+# Figures at 100 dpi, not the 300 users get (inertiafit.plotting.style.DPI_VARIABLE): drawing
+# them is most of a run's time, and the suite runs a few dozen. Tests of the default and of
+# the variable set their own (test_plots.py).
+os.environ["INERTIAFIT_DPI"] = "100"
 
 
 #: Modules whose tests share one costly build (a tutorial's runs, a cohort's fits, a batch's

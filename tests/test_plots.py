@@ -448,12 +448,13 @@ def test_living_fast_trials_shade_the_deceleration_window_each_speed_used():
     assert "hatched = deceleration windows" in fig._suptitle.get_text()
 
 
-def test_report_figures_are_300_dpi_by_default(tmp_path):
+def test_report_figures_are_300_dpi_by_default(tmp_path, monkeypatch):
     from PIL import Image
 
     from inertiafit.report.figures import FigureRecord
     from inertiafit.report.outputs import draw_figures
 
+    monkeypatch.delenv("INERTIAFIT_DPI", raising=False)  # the suite's own setting
     assert plots.DEFAULT_DPI == 300
     record = FigureRecord("trials", functools.partial(plots.plot_inertia_by_speed,
                           synthetic_trials()), "Trials", "")  # fmt: skip
@@ -637,3 +638,31 @@ def test_corner_zooms_to_the_posterior_and_shades_the_prior_box(posterior):
     joint = plots.plot_joint_corner(posterior)
     j_lo, j_hi = np.asarray(joint.axes).reshape(6, 6)[-1, 3].get_xlim()
     assert (j_lo, j_hi) == pytest.approx((m_lo, m_hi))
+
+
+def test_the_dpi_variable_sets_the_resolution_and_a_bad_one_is_one_line(tmp_path, monkeypatch):
+    """INERTIAFIT_DPI: unset or empty, 300; a number from 50 to 1200, that; anything else a
+    one-line error naming the variable, which the command says before any work."""
+    from inertiafit.cli import main
+    from inertiafit.errors import InputError
+    from inertiafit.plotting.style import figure_dpi
+
+    monkeypatch.delenv("INERTIAFIT_DPI", raising=False)
+    assert figure_dpi() == 300
+    for text, value in (("", 300), (" 150 ", 150), ("72.5", 72.5)):
+        monkeypatch.setenv("INERTIAFIT_DPI", text)
+        assert figure_dpi() == value
+    fig = plots.plot_inertia_by_speed(synthetic_trials())
+    monkeypatch.setenv("INERTIAFIT_DPI", "80")
+    (png,) = plots.save_figure(fig, tmp_path / "at80", formats=("png",))
+    from PIL import Image
+
+    with Image.open(png) as image:
+        assert image.info["dpi"] == pytest.approx((80, 80), abs=0.01)
+    for bad in ("high", "10", "5000", "nan"):
+        monkeypatch.setenv("INERTIAFIT_DPI", bad)
+        with pytest.raises(InputError, match=r"^environment variable INERTIAFIT_DPI: expected "):
+            figure_dpi()
+    code = main(["run", str(tmp_path / "no-such-study.toml"), "--out", str(tmp_path / "o")])
+    assert code == 2
+    assert not (tmp_path / "o").exists()

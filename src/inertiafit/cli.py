@@ -23,6 +23,7 @@ from typing import ClassVar
 
 from inertiafit._checks import check_seed
 from inertiafit.errors import InputError
+from inertiafit.plotting.style import figure_dpi
 
 __all__ = ["build_parser", "main"]
 
@@ -828,6 +829,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     handler: Callable[[argparse.Namespace], int] = args.handler
     try:
+        figure_dpi()  # a bad INERTIAFIT_DPI is said before any work, not after the sampling
         return handler(args)
     except InputError as exc:
         shown = _as_options(str(exc), parser, getattr(args, "command", None))

@@ -390,7 +390,7 @@ def write_population_report(
     def save(fig, stem: str) -> bytes:
         """Save a figure in every format; its PNG for the page."""
         stem = safe_stem(stem)
-        save_figure(fig, folder / stem, formats, dpi=150)
+        save_figure(fig, folder / stem, formats)
         written.extend(f"{stem}.{f}" for f in formats)
         return (folder / f"{stem}.png").read_bytes() if "png" in formats else figure_png(fig)
 
