@@ -33,10 +33,16 @@ def test_tau_alpha_lines_have_each_trials_inertia_as_slope(study, study_out):
         fast = trials[(trials["kind"] == "fast") & (trials["condition"] == cond)]
         fig = record.make()
         panels = [ax for ax in fig.axes if ax.get_visible()]
-        assert len(panels) == len(fast) == 6
-        for ax, (_, row) in zip(panels, fast.iterrows(), strict=True):
-            lines = {line.get_label(): line for line in ax.get_lines()}
-            x, y = (np.asarray(v, float) for v in lines["I alpha"].get_data())
+        assert len(panels) == fast["speed"].nunique() == 2  # a panel per speed
+        lines = {}
+        for ax in panels:
+            for line in ax.get_lines():
+                lines[line.get_gid(), line.get_label()] = (ax, line)
+        assert len({gid for gid, _ in lines}) == len(fast) == 6  # every trial drawn
+        for k, (_, row) in enumerate(fast.iterrows()):
+            ax, line = lines[f"trial-{k}", "I alpha"]
+            assert ax.get_title().startswith(f"{row['speed']:g} °/s")  # in its speed's panel
+            x, y = (np.asarray(v, float) for v in line.get_data())
             assert x[0] <= 0 < x[-1]
             slope = (y[-1] - y[0]) / (x[-1] - x[0])
             np.testing.assert_allclose(slope, row["inertia"], rtol=1e-12)
@@ -44,7 +50,8 @@ def test_tau_alpha_lines_have_each_trials_inertia_as_slope(study, study_out):
             # the filled dots are the window's samples the inertia was fitted to: their own
             # least squares through the origin gives it back (decimated to the trace's
             # points, so not to the last digit)
-            a, tau = (np.asarray(v, float) for v in lines["acceleration window"].get_data())
+            _, dots = lines[f"trial-{k}", "acceleration window"]
+            a, tau = (np.asarray(v, float) for v in dots.get_data())
             assert a.size > 30
             np.testing.assert_allclose((a @ tau) / (a @ a), row["inertia"], rtol=2e-3)
             assert a.min() > 0  # the acceleration window, moves plotted as positive

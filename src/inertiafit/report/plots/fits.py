@@ -19,8 +19,8 @@ if TYPE_CHECKING:
 
 __all__ = ["TAU_ALPHA_COLUMNS", "gravity_model", "plot_gravity_fit", "plot_tau_alpha"]
 
-#: Panels per row of :func:`plot_tau_alpha` at a page's width (fewer at a column's).
-TAU_ALPHA_COLUMNS = 6
+#: Panels per row of :func:`plot_tau_alpha` (a panel per speed).
+TAU_ALPHA_COLUMNS = 3
 
 
 def _windows(trace: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -40,19 +40,22 @@ def plot_tau_alpha(
 ) -> Figure:
     """Each fast trial's torque against its acceleration over the windows fitted, and its line.
 
-    One panel per trial: the torque the inertia was fitted to (the filtered torque less the
-    condition's gravity model; a living body's less its static curve, damping and constant)
-    against the filtered acceleration, over the uniform-acceleration window (filled dots)
-    and, for a living body's trial, the uniform-deceleration window (open dots), the rest of
-    the move in grey (not fitted); the line through the origin has the trial's inertia as
-    its slope (``trials.csv``).
+    One panel per speed, every trial at that speed in it: the torque the inertia was fitted
+    to (the filtered torque less the condition's gravity model; a living body's less its
+    static curve, damping and constant) against the filtered acceleration, over the
+    uniform-acceleration window (filled dots) and, for a living body's trial, the
+    uniform-deceleration window (open dots), the rest of the move in grey (not fitted); each
+    trial's line through the origin has its inertia as its slope (``trials.csv``). A panel
+    per trial cost 1.6-1.7 s a condition of 30 trials at 300 dpi, a quarter of a study's
+    figures; a fan of lines at each speed shows their spread as well. Each trial's artists
+    carry ``gid = "trial-<k>"``, ``k`` its place in ``traces``.
 
     Parameters
     ----------
     traces : sequence of dict
         One per trial, as :func:`~inertiafit.report.result.traces_by_condition` gives them,
         each with ``inertial_torque`` (N m, on the trace's samples) and ``inertia``
-        (kg m^2); a trial without them gets an empty panel saying so.
+        (kg m^2); trials without them are counted in the panel's title as not stored.
     title : str
         Figure title (the condition).
     fig : matplotlib.figure.Figure, optional
@@ -63,45 +66,55 @@ def plot_tau_alpha(
     Returns
     -------
     matplotlib.figure.Figure
-        A grid of panels, ``alpha`` [rad/s^2] across, torque [N m] up, in trial order.
+        A panel per speed, ``alpha`` [rad/s^2] across, torque [N m] up.
     """
     w = figure_width(width)
-    n = max(1, len(traces))
-    full = max(2, int(w / 7.0 * TAU_ALPHA_COLUMNS))
-    ncols = min(n, full)
-    nrows = math.ceil(n / ncols)
     living = any("deceleration" in t for t in traces)
-    speeds = sorted({float(t["speed"]) for t in traces})
+    speeds = sorted({float(t["speed"]) for t in traces}) or [math.nan]
     colour = {s: PALETTE[i % len(PALETTE)] for i, s in enumerate(speeds)}
+    ncols = min(len(speeds), TAU_ALPHA_COLUMNS)
+    nrows = math.ceil(len(speeds) / ncols)
     with style_context():
-        fig = new_figure(fig, (w, nrows * w / full * 0.95 + 0.7))
+        fig = new_figure(fig, (w, nrows * min(w / ncols, 3.2) * 0.9 + 0.8))
         axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False).ravel())
-        for k, (ax, t) in enumerate(zip(axes, traces, strict=False)):
-            s = float(t["speed"])
-            ax.set_title(f"#{k + 1}, {s:g} °/s", fontsize="small", pad=2)
-            tau = np.asarray(t.get("inertial_torque", []), dtype=float)
-            inertia = float(t.get("inertia", math.nan))
-            if tau.size == 0 or not np.isfinite(tau).any() or not math.isfinite(inertia):
-                ax.text(0.5, 0.5, "not stored", ha="center", va="center",
-                        transform=ax.transAxes, fontsize="small")  # fmt: skip
-                continue
-            alpha = np.asarray(t["acceleration"], dtype=float)
-            accel, decel = _windows(t)
-            rest = ~(accel | decel) & np.isfinite(tau)
-            ax.plot(alpha[rest], tau[rest], ".", ms=1.0, color="0.7", zorder=0,
-                    label="outside the windows (not fitted)")  # fmt: skip
-            ax.plot(alpha[accel], tau[accel], "o", ms=1.8, mew=0, color=colour[s], alpha=0.7,
-                    label="acceleration window")  # fmt: skip
-            if decel.any():
-                ax.plot(alpha[decel], tau[decel], "o", ms=1.8, mew=0.4, mfc="none",
-                        color=colour[s], alpha=0.7, label="deceleration window")  # fmt: skip
-            used = alpha[np.isfinite(tau)]
-            ends = np.array([min(0.0, float(used.min())), max(0.0, float(used.max()))])
-            ax.plot(ends, inertia * ends, "-", color="k", lw=0.8, label="I alpha")
-            ax.text(0.04, 0.96, f"I = {inertia:.4g}", transform=ax.transAxes, ha="left",
-                    va="top", fontsize="x-small")  # fmt: skip
+        for ax, s in zip(axes, speeds, strict=False):
+            here = [(k, t) for k, t in enumerate(traces) if float(t["speed"]) == s]
+            drawn, inertias = 0, []
+            for k, t in here:
+                tau = np.asarray(t.get("inertial_torque", []), dtype=float)
+                inertia = float(t.get("inertia", math.nan))
+                if tau.size == 0 or not np.isfinite(tau).any() or not math.isfinite(inertia):
+                    continue
+                gid = f"trial-{k}"
+                alpha = np.asarray(t["acceleration"], dtype=float)
+                accel, decel = _windows(t)
+                rest = ~(accel | decel) & np.isfinite(tau)
+                ax.plot(alpha[rest], tau[rest], ".", ms=0.8, color="0.75", zorder=0,
+                        label="outside the windows (not fitted)", gid=gid)  # fmt: skip
+                ax.plot(alpha[accel], tau[accel], "o", ms=1.5, mew=0, color=colour[s],
+                        alpha=0.5, label="acceleration window", gid=gid)  # fmt: skip
+                if decel.any():
+                    ax.plot(alpha[decel], tau[decel], "o", ms=1.5, mew=0.4, mfc="none",
+                            color=colour[s], alpha=0.5, label="deceleration window",
+                            gid=gid)  # fmt: skip
+                used = alpha[np.isfinite(tau)]
+                ends = np.array([min(0.0, float(used.min())), max(0.0, float(used.max()))])
+                ax.plot(ends, inertia * ends, "-", color="k", lw=0.6, alpha=0.8,
+                        label="I alpha", gid=gid)  # fmt: skip
+                drawn += 1
+                inertias.append(inertia)
+            missing = len(here) - drawn
+            head = f"{s:g} °/s: {drawn} trial{'s' if drawn != 1 else ''}"
+            if missing:
+                head += f", {missing} not stored"
+            ax.set_title(head, fontsize="small", pad=2)
+            if inertias:
+                ax.text(0.04, 0.96, f"I = {min(inertias):.4g} to {max(inertias):.4g}"
+                        if len(inertias) > 1 else f"I = {inertias[0]:.4g}",
+                        transform=ax.transAxes, ha="left", va="top",
+                        fontsize="x-small")  # fmt: skip
             ax.tick_params(labelsize="x-small")
-        for ax in axes[len(traces) :]:
+        for ax in axes[len(speeds) :]:
             ax.set_visible(False)
         fig.supxlabel("acceleration α [rad/s²]", fontsize="small")
         fig.supylabel(
@@ -110,9 +123,13 @@ def plot_tau_alpha(
         )
         head = f"{title}: " if title else ""
         fig.suptitle(
-            f"{head}each fast trial's torque against acceleration\ndots: the "
-            + ("acceleration (filled) and deceleration (open) windows" if living else "window")
-            + " fitted, grey: the rest of the move; line: I α",
+            f"{head}each fast trial's torque against acceleration, a panel per speed\ndots: "
+            + (
+                "the acceleration (filled) and deceleration (open) windows"
+                if living
+                else "the window"
+            )
+            + " fitted, grey: the rest of the move; a line I α per trial",
             fontsize="small",
         )
     return fig
