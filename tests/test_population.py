@@ -138,9 +138,7 @@ def _random_share(subjects, n, seed):
     out = []
     for k, s in enumerate(subjects):
         idx = np.sort(np.random.default_rng([seed, k]).choice(len(s.log_theta), n, replace=False))
-        out.append(
-            P.SubjectDraws(s.name, s.log_theta[idx], s.log_interim[idx], s.covariates, s.support)
-        )
+        out.append(s.take(idx))
     return out
 
 
@@ -184,9 +182,7 @@ def _cell_case():
         n_draws=60000, n_proposal=400000, observed=obs,
     )  # fmt: skip
     idx = np.sort(np.random.default_rng(0).choice(60000, 3000, replace=False))
-    subject = P.SubjectDraws(
-        "S1", subject.log_theta[idx], subject.log_interim[idx], covs, subject.support
-    )
+    subject = subject.take(idx)
 
     def direct(z):
         draws = P.predictive_draws(DESIGN, np.repeat(z[None], 400000, 0), covs, rng)
@@ -265,11 +261,7 @@ def test_split_halves_estimate_the_cells_noise():
         for s in subjects:
             centred = s.log_theta - s.log_theta.mean(axis=0)
             order = np.argsort(centred @ np.linalg.svd(centred)[2][0])
-            in_rank.append(
-                P.SubjectDraws(
-                    s.name, s.log_theta[order], s.log_interim[order], s.covariates, s.support
-                )
-            )
+            in_rank.append(s.take(order))
         ranked.append(_split_half_noise(in_rank, design, mats, z, blocks=2))
     values, noise, ranked = np.array(values), np.array(noise), np.array(ranked)
     level = values.var(axis=0, ddof=1).mean()

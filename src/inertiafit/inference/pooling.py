@@ -68,6 +68,8 @@ R_HAT_MAX = 1.02
 MAX_LOGLIKE_VARIANCE = 0.1
 #: Hyperprior draws each term's prior SD is measured from (``decided_by``).
 PRIOR_SD_DRAWS = 4000
+#: Hyperparameter draws each subject's ESS and the density's noise are measured at.
+CHECKED_DRAWS = 200
 #: Studies a body must be in to be pooled.
 MIN_SUBJECTS = 3
 #: Columns of ``population.csv``.
@@ -345,9 +347,7 @@ def _thinned(subjects: Sequence[SubjectDraws], n: int | None, seed: int = 0) -> 
         edges = np.linspace(0, total, n + 1).astype(int)
         within = np.random.default_rng([seed, k]).random(n) * np.diff(edges)
         idx = np.sort(order[edges[:-1] + within.astype(int)])  # in stored order again
-        out.append(
-            SubjectDraws(s.name, s.log_theta[idx], s.log_interim[idx], s.covariates, s.support)
-        )
+        out.append(s.take(idx))
     return out
 
 
@@ -528,9 +528,7 @@ def fit_population(
     n_walkers = max(n_walkers, 2 * design.ndim + 2)
     if not np.isfinite(log_post(mode))[0]:
         z, _ = model.to_model(design, mode[None])
-        lw = features.log_weights(design, matrices, z)[:, 0]
-        w = np.exp(lw - lw.max(axis=1, keepdims=True))
-        subject_ess = w.sum(axis=1) ** 2 / (w * w).sum(axis=1)
+        subject_ess = _weight_ess(features.log_weights(design, matrices, z)[:, 0])
         worst = int(np.argmin(subject_ess))
         raise InputError(
             f"population: subject {subjects[worst].name!r}: importance-weight ESS "
@@ -583,9 +581,10 @@ def fit_population(
     draws = model.to_model(design, chain.reshape(-1, design.ndim))[0].reshape(chain.shape)
     flat = draws.reshape(-1, design.ndim)
     # Each subject pooled over (at most) POOL_DRAWS hyperparameter draws, evenly spaced.
-    keep = flat[np.linspace(0, len(flat) - 1, min(pool_draws, len(flat))).round().astype(int)]
-    ess_sub, ess_low, pooled = _pool(features, every, design, matrices, keep, rng)
-    checked = keep[np.linspace(0, len(keep) - 1, min(200, len(keep))).round().astype(int)]
+    keep = _evenly(flat, pool_draws)
+    # Each subject's ESS and the density's noise at CHECKED_DRAWS of them, evenly spaced.
+    checked = _evenly(keep, CHECKED_DRAWS)
+    ess_sub, ess_low, pooled = _pool(features, every, design, matrices, keep, checked, rng)
     noise = _split_half_noise(all_draws, design, matrices, checked)
     median = np.median(flat, axis=0)
     return PopulationFit(
@@ -612,21 +611,32 @@ def fit_population(
     )
 
 
+def _evenly(rows: np.ndarray, k: int) -> np.ndarray:
+    """At most ``k`` of ``rows``, evenly spaced from the first to the last."""
+    return rows[np.linspace(0, len(rows) - 1, min(k, len(rows))).round().astype(int)]
+
+
+def _weight_ess(log_weights: np.ndarray) -> np.ndarray:
+    """The importance-weight ESS, ``(sum w)^2 / sum w^2``, over the last axis."""
+    w = np.exp(log_weights - log_weights.max(axis=-1, keepdims=True))
+    return w.sum(axis=-1) ** 2 / np.sum(w * w, axis=-1)
+
+
 def _pool(
     share: model.Features,
     every: model.Features,
     design: Design,
     matrices,
     flat: np.ndarray,
+    checked: np.ndarray,
     rng,
     chunk: int = 32,
-    checked: int = 200,
 ):
     """Each subject's pooled draws and its importance-weight ESS.
 
     Pooled draws: one of the ``share`` draws for each hyperparameter draw in ``flat``
-    ``(K, D)``, by its weight. ESS at the median of ``flat`` and its 5th percentile over
-    ``checked`` of the draws, with ``every`` draw.
+    ``(K, D)``, by its weight. ESS with ``every`` draw: at the median of ``flat``, and its
+    5th percentile over the hyperparameter draws ``checked``.
     """
     n, s = share.offset.shape
     pooled = np.empty((n, len(flat), 3))
@@ -640,18 +650,15 @@ def _pool(
         pooled[:, i : i + chunk] = np.take_along_axis(
             share.theta, idx[..., None].repeat(3, axis=2), axis=1
         )
-    some = flat[np.linspace(0, len(flat) - 1, min(checked, len(flat))).round().astype(int)]
-    ess_all = np.empty((n, len(some)))
-    for i in range(0, len(some), 8):
-        lw = every.log_weights(design, matrices, some[i : i + 8])
-        lw -= lw.max(axis=-1, keepdims=True)
-        w = np.exp(lw)
-        w /= w.sum(axis=-1, keepdims=True)
-        ess_all[:, i : i + 8] = 1.0 / np.sum(w * w, axis=-1)
-    lw = every.log_weights(design, matrices, np.median(flat, axis=0))[:, 0]
-    w = np.exp(lw - lw.max(axis=1, keepdims=True))
-    w /= w.sum(axis=1, keepdims=True)
-    return 1.0 / np.sum(w * w, axis=1), np.quantile(ess_all, 0.05, axis=1), pooled
+    ess_all = np.concatenate(
+        [
+            _weight_ess(every.log_weights(design, matrices, checked[i : i + 8]))
+            for i in range(0, len(checked), 8)
+        ],
+        axis=1,
+    )  # (N, len(checked))
+    at_median = _weight_ess(every.log_weights(design, matrices, np.median(flat, axis=0))[:, 0])
+    return at_median, np.quantile(ess_all, 0.05, axis=1), pooled
 
 
 def _split_half_noise(
@@ -674,9 +681,7 @@ def _split_half_noise(
     for s in subjects:
         run = np.arange(len(s.log_theta)) * blocks // len(s.log_theta)
         for half, idx in zip(halves, (run % 2 == 0, run % 2 == 1), strict=True):
-            half.append(
-                SubjectDraws(s.name, s.log_theta[idx], s.log_interim[idx], s.covariates, s.support)
-            )
+            half.append(s.take(idx))
     a = model.Cells(halves[0]).log_likelihood(design, matrices, flat)
     b = model.Cells(halves[1]).log_likelihood(design, matrices, flat)
     return (a - b) / 2.0

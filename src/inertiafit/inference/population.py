@@ -35,7 +35,7 @@ import itertools
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -235,6 +235,10 @@ class SubjectDraws:
     log_interim: np.ndarray
     covariates: dict[str, float]
     support: np.ndarray
+
+    def take(self, idx: np.ndarray) -> SubjectDraws:
+        """The same subject with the draws ``idx`` (an index array or a mask), in that order."""
+        return replace(self, log_theta=self.log_theta[idx], log_interim=self.log_interim[idx])
 
     @property
     def offset(self) -> np.ndarray:
