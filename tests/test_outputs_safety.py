@@ -19,6 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from cases import DISK_FIT, as_ordinary_user
 from hypothesis import given
@@ -692,6 +693,119 @@ def test_sigterm_during_a_command_releases_its_lock(tmp_path):
         assert proc.wait(timeout=30) == 128 + signal.SIGTERM
         assert proc.stderr.read() == ""
     assert list(tmp_path.iterdir()) == []
+
+
+# -- a stop is never lost, nor reported as an error (inertiafit.io.stops) --------------------
+
+
+class _TermsWhenCollected:
+    """An object whose finaliser receives SIGTERM: Python swallows what the handler raises."""
+
+    def __del__(self):
+        signal.raise_signal(signal.SIGTERM)
+        sum(range(100))  # the handler runs at a bytecode boundary in here
+
+
+class _FailsWhenCollected:
+    def __del__(self):
+        raise RuntimeError("a real bug in a finaliser")
+
+
+@pytest.fixture
+def unraisable(monkeypatch):
+    """What reaches ``sys.unraisablehook`` (Python's "Exception ignored in" notices)."""
+    seen: list[BaseException] = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda u: seen.append(u.exc_value))
+    return seen
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGTERM")
+def test_a_sigterm_swallowed_by_a_finaliser_still_ends_the_command(tmp_path, capfd, unraisable):
+    out = tmp_path / "out"
+    went_on = []
+
+    @guard_outputs
+    def command():
+        check_out(out)
+        with output_folder(out) as tmp:
+            (tmp / "summary.csv").write_text("half")
+            _TermsWhenCollected()  # collected at once: the SystemExit is swallowed
+            went_on.append(True)
+            (tmp / "report.html").write_text("half")
+
+    with pytest.raises(SystemExit) as stop:
+        command()
+    assert stop.value.code == 128 + signal.SIGTERM
+    assert went_on == [True]  # the exception was swallowed: the command went on ...
+    assert list(tmp_path.iterdir()) == []  # ... but nothing was swapped in, nor left
+    assert unraisable == []  # Python's "Exception ignored" notice not printed
+    assert capfd.readouterr().err == ""
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    # the next command starts afresh: the stop was forgotten when the guard ended
+    _write(out, NEW)
+    assert _contents(out) == NEW
+
+
+def test_other_errors_in_finalisers_are_still_reported(unraisable):
+    # the negative control of the quiet hook: it silences the stop, not what else goes wrong
+    @guard_outputs
+    def command():
+        _FailsWhenCollected()
+        return 0
+
+    assert command() == 0
+    assert [str(e) for e in unraisable] == ["a real bug in a finaliser"]
+
+
+def _sampler(stop_at: int, signum: int):
+    import emcee
+
+    calls = [0]
+
+    def log_prob(x):
+        calls[0] += 1
+        if calls[0] == stop_at:
+            signal.raise_signal(signum)
+        return -0.5 * np.sum(x**2, axis=1)
+
+    sampler = emcee.EnsembleSampler(8, 2, log_prob, vectorize=True)
+    sampler.random_state = np.random.RandomState(1).get_state()
+    start = np.random.default_rng(1).standard_normal((8, 2))
+    return sampler, start
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGTERM")
+@pytest.mark.parametrize(
+    ("signum", "ends"),
+    [(signal.SIGTERM, SystemExit), (signal.SIGINT, KeyboardInterrupt)],
+)
+def test_a_stop_while_sampling_ends_after_the_step_without_a_traceback(signum, ends, capfd):
+    from inertiafit.inference.moves import run_steps
+    from inertiafit.io.stops import sigterm_ends
+
+    sampler, start = _sampler(stop_at=6, signum=signum)  # emcee: 2 log_prob calls a step
+    with pytest.raises(ends), sigterm_ends():
+        run_steps(sampler, start, 100)
+    assert sampler.iteration == 3  # the call that received it was in step 3; it ended that step
+    assert capfd.readouterr() == ("", "")
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+    # negative control: emcee's own loop reports the stop as a failing likelihood
+    sampler, start = _sampler(stop_at=6, signum=signum)
+    with pytest.raises(ends), sigterm_ends():
+        sampler.run_mcmc(start, 100)
+    assert "emcee: Exception while calling your likelihood function" in capfd.readouterr().out
+
+
+def test_without_a_guard_sampling_leaves_sigterm_alone():
+    from inertiafit.inference.moves import run_steps
+    from inertiafit.io.stops import stop_point
+
+    sampler, start = _sampler(stop_at=-1, signum=signal.SIGTERM)
+    before = signal.getsignal(signal.SIGTERM)
+    run_steps(sampler, start, 5)
+    stop_point()  # nothing recorded: nothing happens
+    assert sampler.iteration == 5
+    assert signal.getsignal(signal.SIGTERM) is before
 
 
 # -- report: all or nothing ------------------------------------------------------------------

@@ -21,6 +21,7 @@ import numpy as np
 
 from inertiafit.errors import InputError
 from inertiafit.inference.model import Model
+from inertiafit.io.stops import signals_deferred, stop_point
 from inertiafit.physics import inertia
 from inertiafit.stats import student_t_logpdf
 
@@ -410,3 +411,19 @@ def emcee_moves(kind: str, mode: np.ndarray, cov: np.ndarray, df: float = 5.0) -
     if kind != "stretch":
         raise ValueError(f"emcee_moves: unknown moves {kind!r} (expected one of {MOVES})")
     return [(emcee.moves.StretchMove(), 1.0)]
+
+
+def run_steps(sampler, start, steps: int):
+    """Run an emcee sampler ``steps`` steps from ``start``, stoppable between steps.
+
+    It is ``sampler.run_mcmc(start, steps)``, except for signals:
+
+    emcee prints a traceback for any exception raised in the log density, a Ctrl-C or SIGTERM
+    among them; the steps run inside :func:`inertiafit.io.stops.signals_deferred` instead, so
+    a stop takes effect after the step under way, silently. Returns the last state.
+    """
+    state = start
+    with signals_deferred():
+        for state in sampler.sample(start, iterations=steps):  # noqa: B007 (the last is kept)
+            stop_point()
+    return state

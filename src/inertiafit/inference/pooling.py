@@ -460,7 +460,7 @@ def fit_population(
     from arviz_stats import ess, rhat
     from scipy import optimize
 
-    from inertiafit.inference.moves import IndependenceMove, emcee_moves
+    from inertiafit.inference.moves import IndependenceMove, emcee_moves, run_steps
 
     seed = check_seed(seed)
     hyper = hyperprior or Hyperprior()
@@ -551,18 +551,18 @@ def fit_population(
     # Warm-up: the independence proposal is refitted to the walkers' own spread after each of
     # ADAPT chunks (the Hessian at the mode misjudges the scatters' skew); then it is fixed and
     # the draws before are dropped, so detailed balance holds for every kept draw.
-    state = sampler.run_mcmc(start, chunk)
+    state = run_steps(sampler, start, chunk)
     independence = [m for m, _ in chosen if isinstance(m, IndependenceMove)]
     for _ in range(ADAPT if independence else 0):
         recent = sampler.get_chain()[-chunk // 2 :].reshape(-1, design.ndim)
         spread = np.cov(recent.T) + np.eye(design.ndim) * 1e-8
         with contextlib.suppress(np.linalg.LinAlgError):  # walkers stuck: keep the proposal
             independence[0].refit(recent.mean(axis=0), spread)
-        state = sampler.run_mcmc(state, chunk)
+        state = run_steps(sampler, state, chunk)
     warm = sampler.iteration
     steps = 0
     while True:
-        state = sampler.run_mcmc(state, chunk)
+        state = run_steps(sampler, state, chunk)
         steps += chunk
         chain = sampler.get_chain()[warm:].swapaxes(0, 1)  # (walker, step, D)
         bulk = np.array([float(ess(chain[..., d], method="bulk")) for d in range(design.ndim)])

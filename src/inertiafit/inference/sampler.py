@@ -39,6 +39,7 @@ from inertiafit.inference.moves import (
     emcee_moves,
     laplace_fit,
     proposal_df,
+    run_steps,
 )
 from inertiafit.inference.star import Star, star_structure
 
@@ -229,7 +230,7 @@ class _EmceeChains:
         self.warmup = 0
 
     def run(self, steps: int) -> None:
-        self.state = self.sampler.run_mcmc(self.state, steps, progress=False)
+        self.state = run_steps(self.sampler, self.state, steps)
 
     @property
     def n_steps(self) -> int:

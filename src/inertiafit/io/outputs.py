@@ -44,11 +44,9 @@ import os
 import re
 import secrets
 import shutil
-import signal
 import socket
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
@@ -58,6 +56,7 @@ from pathlib import Path
 import pandas as pd
 
 from inertiafit.errors import InputError
+from inertiafit.io.stops import signals_held, sigterm_ends, stop_point
 
 __all__ = [
     "MARKER",
@@ -519,7 +518,8 @@ def guard_outputs[**P, R](func: Callable[P, R]) -> Callable[P, R]:
     """Decorate a command that writes an output folder: it can be ended cleanly.
 
     While it runs, SIGTERM ends it as an error does (``SystemExit`` with status 143), so
-    staging folders are removed; when it ends, every folder it claimed with :func:`check_out`
+    staging folders are removed, even where Python swallowed that exception
+    (:mod:`inertiafit.io.stops`); when it ends, every folder it claimed with :func:`check_out`
     and did not write is released (its lock removed).
     """
 
@@ -527,55 +527,15 @@ def guard_outputs[**P, R](func: Callable[P, R]) -> Callable[P, R]:
     def guarded(*args: P.args, **kwargs: P.kwargs) -> R:
         before = set(_CLAIMS)
         try:
-            with _sigterm_ends():
-                return func(*args, **kwargs)
+            with sigterm_ends():
+                done = func(*args, **kwargs)
+                stop_point()  # a SIGTERM whose exception Python swallowed still ends it
+                return done
         finally:
             for target in set(_CLAIMS) - before:
                 _release(target)
 
     return guarded
-
-
-# -- signals ---------------------------------------------------------------------------------
-
-
-def _main_thread() -> bool:
-    return threading.current_thread() is threading.main_thread()
-
-
-def _stop(signum: int, _frame: object) -> None:
-    raise SystemExit(128 + signum)
-
-
-@contextmanager
-def _sigterm_ends() -> Iterator[None]:
-    """SIGTERM raises ``SystemExit`` in here (main thread only), so ``finally`` clauses run."""
-    previous = signal.signal(signal.SIGTERM, _stop) if _main_thread() else None
-    try:
-        yield
-    finally:
-        if _main_thread():
-            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
-
-
-@contextmanager
-def _signals_held() -> Iterator[None]:
-    """Ctrl-C and SIGTERM wait until the block is done (the renames of a swap)."""
-    if not _main_thread():
-        yield
-        return
-    pending: list[int] = []  # signal numbers
-    watched = (signal.SIGINT, signal.SIGTERM)
-    previous = {
-        s: signal.signal(s, lambda signum, _f: pending.append(int(signum))) for s in watched
-    }
-    try:
-        yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, signal.SIG_DFL if handler is None else handler)
-        for signum in dict.fromkeys(pending):
-            signal.raise_signal(signum)
 
 
 # -- staging and the swap --------------------------------------------------------------------
@@ -635,7 +595,7 @@ def _warn(message: str) -> None:
 
 def _swap(new: Path, target: Path, out: str | Path, label: str = "out: ") -> None:
     """Put the complete folder ``new`` at ``target``: old aside, new in, old removed last."""
-    with _signals_held():
+    with signals_held():
         if not target.exists():
             try:
                 os.rename(new, target)
@@ -692,11 +652,12 @@ def output_folder(out: str | Path) -> Iterator[Path]:
     written = False
     try:
         with (
-            _sigterm_ends(),
+            sigterm_ends(),
             _staging(target.parent, f".{target.name}.new-") as staged,
             _staged_as(staged, target) as tmp,
         ):
             yield tmp
+            stop_point()  # asked to stop (the exception swallowed): not swapped in
             _write_marker(tmp, _listing(tmp))
             check_replaceable(target)  # again: under the lock, nothing of yours appeared
             _swap(tmp, target, out)
@@ -727,13 +688,14 @@ def replace_files(folder: str | Path) -> Iterator[Path]:
     written = False
     try:
         with (
-            _sigterm_ends(),
+            sigterm_ends(),
             _staging(target.parent, f".{target.name}.draw-") as drawing,
             _staging(target.parent, f".{target.name}.new-") as whole,
             _staged_as(drawing, target) as tmp,
             _staged_as(whole, target),
         ):
             yield tmp
+            stop_point()
             drawn = _listing(tmp)
             try:
                 shutil.copytree(target, whole, symlinks=True, dirs_exist_ok=True)
