@@ -4,13 +4,14 @@ quadrature reference on a grid in (m, m x, I) that shares nothing with its angle
 negative controls; the blocked and joint samplers agree; SBC with every term."""
 
 import dataclasses
+import warnings
 from functools import cache
 
 import numpy as np
 import pytest
 
 from inertiafit import physics
-from inertiafit.errors import InputError
+from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.inference.fit import fit
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
@@ -220,9 +221,12 @@ def test_negative_control_a_term_left_out_of_the_model_fails_against_the_referen
     post = fit(disk_model(prior, {}), seed=3)
     worst_mean, worst_sd = agreement(post, ref)
     assert worst_mean >= 0.1 or worst_sd >= 0.10
-    # and the wrong offset (10 % off) is caught as well
+    # and the wrong offset (10 % off) is caught as well: the two mountings disagree, so the
+    # sampler would run to its 20 000 steps (11 s); 2000 show a posterior 30 SE off already
     wrong = dict(MOVED, offset=1.1 * D)
-    post = fit(disk_model(prior, wrong), seed=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        post = fit(disk_model(prior, wrong), seed=3, settings=SamplerSettings(max_steps=2000))
     assert max(agreement(post, ref)) >= 0.1
 
 
