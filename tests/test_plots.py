@@ -30,8 +30,8 @@ from scipy.stats import norm
 from inertiafit.baseline import curve_mass_intervals, paper_baseline
 from inertiafit.errors import InputError
 from inertiafit.physics import PARAMETERS, REPORTED
-from inertiafit.plotting import raster
-from inertiafit.plotting.corner import IDEAL_COLOUR, IDEAL_LABEL, TRUTH_LABEL
+from inertiafit.plotting import raster, style
+from inertiafit.plotting.corner import IDEAL_COLOUR, IDEAL_LABEL, TRUTH_LABEL, corner_figure
 from inertiafit.posterior import Posterior
 from inertiafit.report import plots
 from inertiafit.report.plots.identification import curve_verdict
@@ -160,7 +160,7 @@ def baseline():
 
 def check_image(fig, name: str, tmp_path: Path) -> None:
     """Compare the figure at :data:`DPI` with ``baseline_images/<name>.png``."""
-    (actual,) = plots.save_figure(fig, tmp_path / name, formats=("png",), dpi=DPI)
+    (actual,) = style.save_figure(fig, tmp_path / name, formats=("png",), dpi=DPI)
     expected = BASELINES / f"{name}.png"
     if UPDATE:
         BASELINES.mkdir(exist_ok=True)
@@ -212,7 +212,7 @@ def test_image_comparison_catches_a_moved_label(posterior, baseline, tmp_path):
         pytest.skip("regenerating baselines")
     fig = figures(posterior, baseline)["trace"]()
     fig.axes[0].set_ylabel("$m$ [g]")
-    (actual,) = plots.save_figure(fig, tmp_path / "trace", formats=("png",), dpi=DPI)
+    (actual,) = style.save_figure(fig, tmp_path / "trace", formats=("png",), dpi=DPI)
     assert compare_images(str(BASELINES / "trace.png"), str(actual), tol=TOL) is not None
 
 
@@ -252,12 +252,12 @@ def test_width_sets_the_figure_width(posterior, width, inches):
 
 
 def test_defaults_are_journal_column_widths(posterior):
-    assert posterior.corner("attachment").get_size_inches()[0] == plots.DOUBLE_COLUMN
-    assert plots.plot_trace(posterior, "weight").get_size_inches()[0] == plots.DOUBLE_COLUMN
+    assert posterior.corner("attachment").get_size_inches()[0] == style.DOUBLE_COLUMN
+    assert plots.plot_trace(posterior, "weight").get_size_inches()[0] == style.DOUBLE_COLUMN
     with pytest.raises(ValueError, match="width"):
         plots.plot_trace(posterior, "weight", width="triple")
     with pytest.raises(ValueError, match="width"):
-        plots.figure_width(-1.0)
+        style.figure_width(-1.0)
 
 
 def test_corner_axes_span_the_prior_box_with_truth_lines(posterior):
@@ -273,13 +273,13 @@ def test_corner_axes_span_the_prior_box_with_truth_lines(posterior):
     truth = [
         ln
         for ln in axes[-1, 0].get_lines()
-        if ln.get_color() == plots.PALETTE[1] and ln.get_xdata()[0] == pytest.approx(2.92)
+        if ln.get_color() == style.PALETTE[1] and ln.get_xdata()[0] == pytest.approx(2.92)
     ]
     assert truth, "truth line for mass missing"
-    inertia_truth = [ln for ln in axes[3, 3].get_lines() if ln.get_color() == plots.PALETTE[1]]
+    inertia_truth = [ln for ln in axes[3, 3].get_lines() if ln.get_color() == style.PALETTE[1]]
     assert inertia_truth
     # the box edges are drawn (dashed, prior colour) on every mass panel
-    edges = [ln for ln in axes[0, 0].get_lines() if ln.get_color() == plots.PRIOR_COLOUR]
+    edges = [ln for ln in axes[0, 0].get_lines() if ln.get_color() == style.PRIOR_COLOUR]
     assert sorted(ln.get_xdata()[0] for ln in edges) == pytest.approx([1.46, 4.38])
 
 
@@ -306,10 +306,10 @@ def test_dropping_the_hidden_draws_leaves_the_corner_picture_unchanged(
 
     fig = posterior.corner("attachment", truths=TRUTHS)
     kept = draws(fig)
-    (dropped,) = plots.save_figure(fig, tmp_path / "dropped", formats=("png",), dpi=100)
+    (dropped,) = style.save_figure(fig, tmp_path / "dropped", formats=("png",), dpi=100)
     monkeypatch.setattr(raster, "drop_hidden_points", lambda ax: None)
     fig = posterior.corner("attachment", truths=TRUTHS)
-    (every,) = plots.save_figure(fig, tmp_path / "every", formats=("png",), dpi=100)
+    (every,) = style.save_figure(fig, tmp_path / "every", formats=("png",), dpi=100)
     assert kept < draws(fig) / 2
     assert compare_images(str(every), str(dropped), tol=0) is None  # the same pixels
 
@@ -337,7 +337,7 @@ def test_joint_corner_has_every_bodys_parameters_on_their_boxes(posterior):
         return [
             ln
             for ln in ax.get_lines()
-            if ln.get_color() == plots.PALETTE[1] and np.isfinite(ln.get_xdata()).all()
+            if ln.get_color() == style.PALETTE[1] and np.isfinite(ln.get_xdata()).all()
         ]
 
     assert truth_lines(axes[-1, 3])
@@ -364,7 +364,7 @@ def test_corner_draws_the_ideal_body_apart_from_the_truth(posterior):
     fig = posterior.corner("weight", truths={"mass": 2.85}, ideal={"mass": 2.92, "inertia": 0.6})
     axes = np.asarray(fig.axes).reshape(5, 5)
     assert lines(axes[-1, 0], IDEAL_COLOUR) == pytest.approx([2.92])  # dashed: the ideal
-    assert lines(axes[-1, 0], plots.PALETTE[1]) == pytest.approx([2.85])  # solid: the truth
+    assert lines(axes[-1, 0], style.PALETTE[1]) == pytest.approx([2.85])  # solid: the truth
     ideal = [ln for ln in axes[3, 3].get_lines() if ln.get_color() == IDEAL_COLOUR]
     assert [ln.get_linestyle() for ln in ideal] == ["--"]
     joint = plots.plot_joint_corner(posterior, ideals={"weight": {"mass": 2.92}})
@@ -385,7 +385,7 @@ def test_corner_legend_names_the_truth_and_the_ideal_lines(posterior):
         "weight", parameters=("mass", "com_distance"), truths={"mass": 2.85}, ideal={"mass": 2.92}
     )
     assert legend(both) == {
-        TRUTH_LABEL: (plots.PALETTE[1], "-"),
+        TRUTH_LABEL: (style.PALETTE[1], "-"),
         IDEAL_LABEL: (IDEAL_COLOUR, "--"),
     }
     # it sits in the empty upper triangle: above the last diagonal panel, inside the figure
@@ -404,9 +404,9 @@ def test_corner_legend_names_the_truth_and_the_ideal_lines(posterior):
         "boxes": [None, None],
         "priors": [None, None],
     }
-    assert list(legend(plots.corner_figure(**small, truths=[0.5, None]))) == [TRUTH_LABEL]
-    assert list(legend(plots.corner_figure(**small, ideals=[None, 0.2]))) == [IDEAL_LABEL]
-    assert legend(plots.corner_figure(**small, truths=[None, None], ideals=None)) == {}
+    assert list(legend(corner_figure(**small, truths=[0.5, None]))) == [TRUTH_LABEL]
+    assert list(legend(corner_figure(**small, ideals=[None, 0.2]))) == [IDEAL_LABEL]
+    assert legend(corner_figure(**small, truths=[None, None], ideals=None)) == {}
 
 
 def deceleration_traces(seed: int = 0) -> list[dict]:
@@ -455,7 +455,7 @@ def test_report_figures_are_300_dpi_by_default(tmp_path, monkeypatch):
     from inertiafit.report.outputs import draw_figures
 
     monkeypatch.delenv("INERTIAFIT_DPI", raising=False)  # the suite's own setting
-    assert plots.DEFAULT_DPI == 300
+    assert style.DEFAULT_DPI == 300
     record = FigureRecord("trials", functools.partial(plots.plot_inertia_by_speed,
                           synthetic_trials()), "Trials", "")  # fmt: skip
     draw_figures([record], tmp_path, ("png",), workers=1)
@@ -492,7 +492,7 @@ def test_identification_curve_panels_box_and_physics(posterior, baseline):
     assert m.min() >= 1.455 - 1e-12
     assert m.max() <= 4.365 + 1e-12
     # the bound m >= (M_g/g)^2 / I
-    bound = [ln for ln in axes[0].get_lines() if ln.get_color() == plots.PALETTE[2]]
+    bound = [ln for ln in axes[0].get_lines() if ln.get_color() == style.PALETTE[2]]
     assert bound[0].get_xdata()[0] == pytest.approx(a**2 / i)
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert "paper baseline: feasible-region mean" in labels
@@ -535,29 +535,29 @@ def test_rank_groups_are_uniform_for_mixed_walkers_and_not_for_stuck_ones():
 
 def test_save_figure_writes_vector_and_raster(posterior, tmp_path):
     fig = plots.plot_rank(posterior, "attachment")
-    paths = plots.save_figure(fig, tmp_path / "rank", formats=("pdf", "png", "svg"), dpi=50)
+    paths = style.save_figure(fig, tmp_path / "rank", formats=("pdf", "png", "svg"), dpi=50)
     assert [p.suffix for p in paths] == [".pdf", ".png", ".svg"]
     assert paths[0].read_bytes().startswith(b"%PDF")
     assert paths[1].read_bytes().startswith(b"\x89PNG")
     assert b"<svg" in paths[2].read_bytes()[:500]
-    again = plots.save_figure(fig, tmp_path / "again", formats=("pdf",), dpi=50)
+    again = style.save_figure(fig, tmp_path / "again", formats=("pdf",), dpi=50)
     assert again[0].read_bytes() == paths[0].read_bytes()  # no dates: same bytes
     with pytest.raises(ValueError, match="formats"):
-        plots.save_figure(fig, tmp_path / "x", formats=("jpg",))
+        style.save_figure(fig, tmp_path / "x", formats=("jpg",))
 
 
 def test_one_check_of_figure_formats(posterior, tmp_path):
-    assert plots.FIGURE_FORMATS == ("pdf", "png", "svg")
-    assert plots.check_formats([" PDF", "png", ""]) == ("pdf", "png")
-    assert plots.check_formats("svg,png") == ("svg", "png")
+    assert style.FIGURE_FORMATS == ("pdf", "png", "svg")
+    assert style.check_formats([" PDF", "png", ""]) == ("pdf", "png")
+    assert style.check_formats("svg,png") == ("svg", "png")
     message = r"^formats: expected a comma-separated subset of pdf,png,svg, got "
     for bad in (["jpg"], [], ["", " "], "pdf,gif"):
         with pytest.raises(InputError, match=message):
-            plots.check_formats(bad)
+            style.check_formats(bad)
     with pytest.raises(InputError, match=r"^--formats: .* got 'png,gif'$"):
-        plots.check_formats(["png", "gif"], where="--formats")
+        style.check_formats(["png", "gif"], where="--formats")
     with pytest.raises(InputError, match=message):  # save_figure checks through it too
-        plots.save_figure(plots.plot_rank(posterior, "weight"), tmp_path / "x", formats=("gif",))
+        style.save_figure(plots.plot_rank(posterior, "weight"), tmp_path / "x", formats=("gif",))
     assert not list(tmp_path.iterdir())
 
 
@@ -566,10 +566,10 @@ def test_save_figure_restores_the_layout_engine(posterior, tmp_path):
     fig = plots.plot_rank(posterior, "attachment")
     engine = fig.get_layout_engine()
     assert engine is not None
-    plots.save_figure(fig, tmp_path / "rank", formats=("pdf", "png"), dpi=50)
+    style.save_figure(fig, tmp_path / "rank", formats=("pdf", "png"), dpi=50)
     assert fig.get_layout_engine() is engine
     with pytest.raises(ValueError, match="formats"):
-        plots.save_figure(fig, tmp_path / "x", formats=("jpg",))
+        style.save_figure(fig, tmp_path / "x", formats=("jpg",))
     assert fig.get_layout_engine() is engine
 
 
@@ -624,7 +624,7 @@ def test_corner_zooms_to_the_posterior_and_shades_the_prior_box(posterior):
         shaded = [
             patch
             for patch in axes[i, i].patches
-            if patch.get_facecolor()[:3] == pytest.approx(to_rgb(plots.PRIOR_COLOUR))
+            if patch.get_facecolor()[:3] == pytest.approx(to_rgb(style.PRIOR_COLOUR))
         ]
         assert len(shaded) == 1, p  # the box as a band on its marginal
     m_lo, m_hi = axes[-1, 0].get_xlim()
@@ -633,7 +633,7 @@ def test_corner_zooms_to_the_posterior_and_shades_the_prior_box(posterior):
     assert not [
         patch
         for patch in np.asarray(spanned.axes).reshape(5, 5)[0, 0].patches
-        if patch.get_facecolor()[:3] == pytest.approx(to_rgb(plots.PRIOR_COLOUR))
+        if patch.get_facecolor()[:3] == pytest.approx(to_rgb(style.PRIOR_COLOUR))
     ]
     joint = plots.plot_joint_corner(posterior)
     j_lo, j_hi = np.asarray(joint.axes).reshape(6, 6)[-1, 3].get_xlim()
@@ -654,7 +654,7 @@ def test_the_dpi_variable_sets_the_resolution_and_a_bad_one_is_one_line(tmp_path
         assert figure_dpi() == value
     fig = plots.plot_inertia_by_speed(synthetic_trials())
     monkeypatch.setenv("INERTIAFIT_DPI", "80")
-    (png,) = plots.save_figure(fig, tmp_path / "at80", formats=("png",))
+    (png,) = style.save_figure(fig, tmp_path / "at80", formats=("png",))
     from PIL import Image
 
     with Image.open(png) as image:

@@ -25,8 +25,7 @@ from typing import Any
 import pandas as pd
 
 from inertiafit.io.outputs import final_text, write_csv
-from inertiafit.plotting.style import DEFAULT_FORMATS
-from inertiafit.report import plots
+from inertiafit.plotting.style import DEFAULT_FORMATS, save_figure
 from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.report.html import figure_png, study_report
 from inertiafit.report.methods import write_methods
@@ -71,7 +70,7 @@ def _draw(record: FigureRecord, folder: Path, formats: tuple[str, ...]) -> bytes
     fig = record.make()
     wanted = record.formats_of(formats)
     if wanted:
-        plots.save_figure(fig, folder / record.stem, wanted)
+        save_figure(fig, folder / record.stem, wanted)
     # Embed the PNG just written rather than drawing the figure once more.
     png = (folder / f"{record.stem}.png").read_bytes() if "png" in wanted else figure_png(fig)
     # A figure's artists refer to each other in cycles, which only the collector frees, and

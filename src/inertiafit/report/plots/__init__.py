@@ -11,29 +11,13 @@ gravity model and residuals), :mod:`~inertiafit.report.plots.identification` (th
 trials with their deceleration windows) and
 :mod:`~inertiafit.report.plots.corner` (the joint corner plot). Posterior figures take a
 :class:`inertiafit.posterior.Posterior` (walkers are the ``chain`` dimension of its tree) and a
-body name. The house style, sizes and saving come from :mod:`inertiafit.plotting` and are
-re-exported here, so ``plots.save_figure`` and ``plots.corner_figure`` work as well.
+body name. The house style, sizes and saving are :mod:`inertiafit.plotting`'s (not re-exported:
+one name, one home).
 ``docs/figures.md`` says how to read each figure.
 """
 
 from __future__ import annotations
 
-from inertiafit.plotting.corner import corner_figure
-from inertiafit.plotting.style import (
-    DEFAULT_DPI,
-    DOUBLE_COLUMN,
-    FIGURE_FORMATS,
-    PALETTE,
-    PRIOR_COLOUR,
-    SINGLE_COLUMN,
-    STYLE,
-    axis_label,
-    check_formats,
-    figure_width,
-    new_figure,
-    save_figure,
-    style_context,
-)
 from inertiafit.report.plots.corner import plot_joint_corner
 from inertiafit.report.plots.diagnostics import plot_rank, plot_trace, rank_groups
 from inertiafit.report.plots.emg import plot_emg_envelopes
@@ -49,21 +33,9 @@ from inertiafit.report.plots.trials import plot_fast_trials, plot_inertia_by_spe
 
 __all__ = [
     "CURVE_PAIRS",
-    "DEFAULT_DPI",
-    "DOUBLE_COLUMN",
-    "FIGURE_FORMATS",
-    "PALETTE",
-    "PRIOR_COLOUR",
-    "SINGLE_COLUMN",
-    "STYLE",
     "VERDICT_STYLE",
-    "axis_label",
-    "check_formats",
-    "corner_figure",
-    "figure_width",
     "gravity_model",
     "interval_table",
-    "new_figure",
     "plot_emg_envelopes",
     "plot_fast_trials",
     "plot_gravity_fit",
@@ -78,6 +50,4 @@ __all__ = [
     "plot_tau_alpha",
     "plot_trace",
     "rank_groups",
-    "save_figure",
-    "style_context",
 ]
