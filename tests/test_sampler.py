@@ -141,3 +141,31 @@ def test_identifiability_attachment_is_shared_between_data_and_prior():
     # every draw respects physical consistency, m >= (M_g/g)^2 / I
     d = {q: post.draws("biodex-elbow-attachment", q) for q in QUANTITIES}
     assert (d["mass"] >= (d["gravity_moment"] / 9.81) ** 2 / d["inertia"] * (1 - 1e-12)).all()
+
+
+def test_a_convergence_check_stops_at_the_first_failing_quantity_and_decides_as_the_full_one():
+    from arviz_stats.base import array_stats
+
+    from inertiafit.inference.sampler import _checks
+
+    rng = np.random.default_rng(8)
+    good = rng.standard_normal((16, 400, 2))  # (walkers, draws, bodies): mixed, independent
+    stuck = good.copy()
+    stuck[:8] += 3.0  # half the walkers elsewhere: R-hat far above 1.01
+    params = {"mass": good, "inertia": stuck, "torque_gain": good[..., 0]}
+    full = np.concatenate(
+        [np.moveaxis(v, -1, 0) if v.ndim == 3 else v[None] for v in params.values()]
+    )
+    ess = array_stats.ess(full, chain_axis=-2, draw_axis=-1, method="bulk")
+    rhat = array_stats.rhat(full, chain_axis=-2, draw_axis=-1)
+    assert rhat[2] > 1.5 and rhat[[0, 1, 4]].max() < 1.01
+    # from quantity 0: the first that fails is the inertia of body 0 (row 2), with its numbers
+    assert _checks(params, 1000.0, 1.01) == pytest.approx((ess[2], rhat[2], 2))
+    # started from the last culprit, it is the first looked at
+    assert _checks(params, 1000.0, 1.01, first=3)[2] == 3
+    # all pass (no bounds): the minimum and maximum over every quantity, as one full pass gives
+    low, high, culprit = _checks(params, -np.inf, np.inf)
+    assert culprit is None
+    assert (low, high) == pytest.approx((ess.min(), rhat.max()))
+    # negative control: without the stuck walkers nothing fails
+    assert _checks({"mass": good}, 1000.0, 1.01)[2] is None

@@ -413,7 +413,7 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
     burn = 0
     params: dict[str, np.ndarray] = {}
     diag: dict[str, float] = {}
-    failing: int | None = 0  # the quantity that failed the last check
+    failing = 0  # the quantity that failed the last check
     while chains.n_steps < s.max_steps:
         # Chunks grow with the chain, so the diagnostics cost a bounded share of the run.
         steps = min(max(s.chunk, chains.n_steps // 4), s.max_steps - chains.n_steps)
@@ -441,13 +441,13 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
         if chains.n_steps >= s.max_steps:  # the last check: every quantity, for the record
             ess_min, rhat_max, _ = _checks(params, -math.inf, math.inf)
         else:
-            ess_min, rhat_max, failing = _checks(params, s.ess_min, s.r_hat_max, failing)
+            ess_min, rhat_max, culprit = _checks(params, s.ess_min, s.r_hat_max, failing)
+            failing = culprit if culprit is not None else failing
         diag = {"ess_bulk_min": ess_min, "r_hat_max": rhat_max, "tau_max": tau_max}
         _progress(show, chains.n_steps, s.max_steps, tau_max, ess_min, t0)
         if long_enough and rhat_max <= s.r_hat_max and ess_min >= s.ess_min:
             converged = True
             break
-        failing = failing or 0
     if show:
         sys.stderr.write("\n")
     if not converged:
