@@ -37,8 +37,20 @@ TORQUE_UNITS = ("N*m", "ft*lbf", "in*lbf")
 TIME_UNITS = ("s", "ms")
 
 
+#: Where the examples' files are written: the module's own temporary folder (pytest removes
+#: old ones), not the system's (a folder per example piled up there, 1500 a fuzz run).
+_ROOT: list[Path] = []
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _scratch_root(tmp_path_factory):
+    _ROOT[:] = [tmp_path_factory.mktemp("examples")]
+    yield
+    _ROOT.clear()
+
+
 def _scratch(name: str, data: bytes | str) -> Path:
-    folder = Path(tempfile.mkdtemp(prefix="inertiafit-prop-"))
+    folder = Path(tempfile.mkdtemp(dir=_ROOT[0]))
     path = folder / name
     if isinstance(data, bytes):
         path.write_bytes(data)
