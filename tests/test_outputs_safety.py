@@ -783,10 +783,11 @@ def test_a_stop_while_sampling_ends_after_the_step_without_a_traceback(signum, e
     from inertiafit.inference.moves import run_steps
     from inertiafit.io.stops import sigterm_ends
 
-    sampler, start = _sampler(stop_at=6, signum=signum)  # emcee: 2 log_prob calls a step
+    # emcee calls log_prob once for the start, then twice a step: call 6 is in step 3
+    sampler, start = _sampler(stop_at=6, signum=signum)
     with pytest.raises(ends), sigterm_ends():
         run_steps(sampler, start, 100)
-    assert sampler.iteration == 3  # the call that received it was in step 3; it ended that step
+    assert sampler.iteration == 3  # the step under way was finished, and no other begun
     assert capfd.readouterr() == ("", "")
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
     # negative control: emcee's own loop reports the stop as a failing likelihood
