@@ -168,5 +168,7 @@ def test_a_convergence_check_stops_at_the_first_failing_quantity_and_decides_as_
     low, high, culprit = _checks(params, -np.inf, np.inf)
     assert culprit is None
     assert (low, high) == pytest.approx((ess.min(), rhat.max()))
+    # not early (the last check, for the record): every quantity, and still the culprit
+    assert _checks(params, 1000.0, 1.01, early=False) == pytest.approx((ess.min(), rhat.max(), 2))
     # negative control: without the stuck walkers nothing fails
     assert _checks({"mass": good}, 1000.0, 1.01)[2] is None

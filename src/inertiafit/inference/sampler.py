@@ -169,17 +169,22 @@ def _progress(enabled: bool, steps: int, max_steps: int, tau: float, ess: float,
 
 
 def _checks(
-    params: dict[str, np.ndarray], ess_min: float, r_hat_max: float, first: int = 0
+    params: dict[str, np.ndarray],
+    ess_min: float,
+    r_hat_max: float,
+    first: int = 0,
+    *,
+    early: bool = True,
 ) -> tuple[float, float, int | None]:
     """Smallest bulk ESS and largest R-hat over every reported quantity, and which failed.
 
     The quantities are checked one by one, from ``first`` (the one that failed last time: it
-    usually fails again) on, and the check stops at the first that misses ``ess_min`` or
-    ``r_hat_max``: its ESS and R-hat are returned with its index, and the chain is not
-    converged whatever the others say. When every quantity passes, the ESS and R-hat are the
-    minimum and maximum over all of them, and the index is ``None``. The rank normalisation
-    of every quantity's draws is most of a check's cost (a third of a slow living fit's time
-    when every check did all of them).
+    usually fails again) on; the index returned is the first that misses ``ess_min`` or
+    ``r_hat_max`` in that order, ``None`` when every one passes. With ``early`` the check
+    stops there and returns that quantity's ESS and R-hat (the chain is not converged whatever
+    the others say); otherwise, and when every quantity passes, the ESS and R-hat are the
+    minimum and maximum over all of them. The rank normalisation of every quantity's draws is
+    most of a check's cost (a third of a slow living fit's time when every check did all).
     """
     from arviz_stats.base import array_stats
 
@@ -191,13 +196,16 @@ def _checks(
     n = len(stack)
     ess = np.empty(n)
     rhat = np.empty(n)
+    culprit = None
     for i in (np.arange(n) + first) % n:
         row = stack[i : i + 1]
         ess[i] = array_stats.ess(row, chain_axis=-2, draw_axis=-1, method="bulk")[0]
         rhat[i] = array_stats.rhat(row, chain_axis=-2, draw_axis=-1)[0]
-        if not (ess[i] >= ess_min and rhat[i] <= r_hat_max):
-            return float(ess[i]), float(rhat[i]), int(i)
-    return float(np.min(ess)), float(np.max(rhat)), None
+        if culprit is None and not (ess[i] >= ess_min and rhat[i] <= r_hat_max):
+            culprit = int(i)
+            if early:
+                return float(ess[i]), float(rhat[i]), culprit
+    return float(np.min(ess)), float(np.max(rhat)), culprit
 
 
 def resolve_moves(model: Model, moves: str) -> str:
@@ -438,11 +446,12 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
             chains.warm_up(kept)
             continue
         params = model.parameters(kept, np.random.default_rng([seed, 1]))
-        if chains.n_steps >= s.max_steps:  # the last check: every quantity, for the record
-            ess_min, rhat_max, _ = _checks(params, -math.inf, math.inf)
-        else:
-            ess_min, rhat_max, culprit = _checks(params, s.ess_min, s.r_hat_max, failing)
-            failing = culprit if culprit is not None else failing
+        # the last check (at max_steps) looks at every quantity, for the record
+        last = chains.n_steps >= s.max_steps
+        ess_min, rhat_max, culprit = _checks(
+            params, s.ess_min, s.r_hat_max, failing, early=not last
+        )
+        failing = culprit if culprit is not None else failing
         diag = {"ess_bulk_min": ess_min, "r_hat_max": rhat_max, "tau_max": tau_max}
         _progress(show, chains.n_steps, s.max_steps, tau_max, ess_min, t0)
         if long_enough and rhat_max <= s.r_hat_max and ess_min >= s.ess_min:
