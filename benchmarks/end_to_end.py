@@ -106,7 +106,7 @@ wrap_function("inertiafit.inference.sampler", "sample", "  sample (Laplace start
 wrap_function("inertiafit.inference.moves", "laplace_fit", "    Laplace start")
 wrap_function("inertiafit.inference.fit", "build_tree", "  build_tree")
 wrap_function("inertiafit.processing.speed", "speed_effect", "speed_effect")
-wrap_function("inertiafit.pipeline.study", "paper_baselines", "paper_baselines")
+wrap_function("inertiafit.report.comparison", "paper_baselines", "paper_baselines")
 wrap_function("inertiafit.report.comparison", "comparison_table", "comparison_table")
 wrap_function("inertiafit.report.outputs", "write_outputs", "write_outputs")
 wrap(Posterior, "corner", "  corner plots")

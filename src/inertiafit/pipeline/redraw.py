@@ -19,7 +19,6 @@ from inertiafit.errors import InputError
 from inertiafit.inference.priors import Prior, priors_from_posterior
 from inertiafit.io.outputs import check_as_written, replace_files
 from inertiafit.pipeline.fit import fit_result
-from inertiafit.pipeline.study import paper_baselines
 from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior, open_posterior
 from inertiafit.processing.living import living_tables_from_tree
@@ -31,6 +30,7 @@ from inertiafit.processing.study import (
     TRIAL_COLUMNS,
     usable_trials,
 )
+from inertiafit.report.comparison import paper_baselines
 from inertiafit.report.outputs import DATA_FILES, write_outputs
 from inertiafit.report.result import Result, make_result
 

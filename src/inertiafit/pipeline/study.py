@@ -26,7 +26,6 @@ import numpy as np
 import pandas as pd
 
 from inertiafit._checks import check_probability, check_seed
-from inertiafit.baseline import BaselineResult, paper_baseline
 from inertiafit.errors import InputError, StudyRefused
 from inertiafit.inference.evidence import check_trials_in_priors, study_model, study_priors
 from inertiafit.inference.fit import fit
@@ -42,10 +41,9 @@ from inertiafit.processing.living import LIVING_GROUP, living_datatree, living_t
 from inertiafit.processing.speed import speed_effect
 from inertiafit.processing.study import (
     ProcessedStudy,
-    condition_gravity,
     process_study,
-    usable_trials,
 )
+from inertiafit.report.comparison import paper_baselines
 from inertiafit.report.outputs import figure_workers, write_outputs
 from inertiafit.report.result import Result, make_result
 from inertiafit.report.text import diagnostics_text
@@ -54,7 +52,6 @@ from inertiafit.shapes import ideal_body
 __all__ = [
     "DIAGNOSTICS",
     "analyse_study",
-    "paper_baselines",
     "run_study",
     "study_ideals",
     "study_inputs",
@@ -130,56 +127,6 @@ def study_inputs(study: Study) -> list[Path]:
     if study.passive is not None:
         priors.append(passive_prior_path(study.passive.joint))
     return [study.path, *(t.file for t in study.trials), *priors]
-
-
-def paper_baselines(
-    trials: pd.DataFrame,
-    conditions: Mapping[str, tuple[str, ...]],
-    priors: Mapping[str, Prior],
-    *,
-    gravity: float,
-    notes: list[str] | None = None,
-) -> dict[str, BaselineResult]:
-    """The paper's estimator per body, as the paper applies it.
-
-    A body measured alone gets the multi-start fit of its condition's mean ``I`` and ``M_g``;
-    a body added to another condition gets the fit of the differences of the condition means
-    (Son et al., section 3.2: ``I_w = mean(I_b) - mean(I_a)``). Bodies measured neither way
-    have no baseline; a baseline that cannot be computed is a line in ``notes``. Skipped trials
-    (``status`` ``"skipped"``) are left out.
-    """
-    trials = usable_trials(trials)
-    grav = condition_gravity(trials)
-    means = {}
-    for label, bodies in conditions.items():
-        fast = trials[(trials["condition"] == label) & (trials["kind"] == "fast")]
-        if len(fast) and label in grav:
-            means[frozenset(bodies)] = (float(fast["inertia"].mean()), grav[label])
-    out = {}
-    for name, prior in priors.items():
-        target = means.get(frozenset([name]))
-        if target is None:
-            for key, (i_b, g_b) in means.items():
-                rest = key - {name}
-                if name in key and rest in means:
-                    i_a, g_a = means[rest]
-                    target = (i_b - i_a, g_b - g_a)
-                    break
-        if target is None or target[0] <= 0 or target[1] <= 0:
-            continue
-        try:
-            out[name] = paper_baseline(
-                inertia=target[0],
-                gravity_moment=target[1],
-                nominal=prior.nominal,
-                lower=prior.lower,
-                upper=prior.upper,
-                gravity=gravity,
-            )
-        except InputError as exc:
-            if notes is not None:
-                notes.append(f"baseline of '{name}' not computed: {exc}")
-    return out
 
 
 def _sample_study(

@@ -4,7 +4,9 @@ The posterior beside the prior, ideal bodies, the paper's estimator and publishe
 :func:`comparison_table` builds it (a row per body and reported quantity). A study's
 ``comparison.csv`` shows the columns :data:`STUDY_COLUMNS` (the paper's Tables 2 and 3 with the
 posterior beside them); a body fitted from numbers shows :data:`FIT_COLUMNS` (its prior's
-nominal values and the published reference in the prior file).
+nominal values and the published reference in the prior file). :func:`paper_baselines` applies
+the paper's estimator to a study's trials as the paper does, for the table's ``baseline``
+column (``inertiafit run`` and ``inertiafit report`` both call it).
 """
 
 from __future__ import annotations
@@ -16,11 +18,21 @@ from typing import Any
 import pandas as pd
 
 from inertiafit import physics
+from inertiafit.baseline import BaselineResult, paper_baseline
+from inertiafit.errors import InputError
 from inertiafit.inference.priors import Prior
 from inertiafit.physics import REPORTED, UNITS
 from inertiafit.posterior import Posterior
+from inertiafit.processing.study import condition_gravity, usable_trials
 
-__all__ = ["COLUMNS", "FIT_COLUMNS", "STUDY_COLUMNS", "comparison_table", "prior_values"]
+__all__ = [
+    "COLUMNS",
+    "FIT_COLUMNS",
+    "STUDY_COLUMNS",
+    "comparison_table",
+    "paper_baselines",
+    "prior_values",
+]
 
 #: Every column of :func:`comparison_table`.
 COLUMNS = [
@@ -153,3 +165,53 @@ def comparison_table(
                 }
             )
     return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def paper_baselines(
+    trials: pd.DataFrame,
+    conditions: Mapping[str, tuple[str, ...]],
+    priors: Mapping[str, Prior],
+    *,
+    gravity: float,
+    notes: list[str] | None = None,
+) -> dict[str, BaselineResult]:
+    """The paper's estimator per body, as the paper applies it.
+
+    A body measured alone gets the multi-start fit of its condition's mean ``I`` and ``M_g``;
+    a body added to another condition gets the fit of the differences of the condition means
+    (Son et al., section 3.2: ``I_w = mean(I_b) - mean(I_a)``). Bodies measured neither way
+    have no baseline; a baseline that cannot be computed is a line in ``notes``. Skipped trials
+    (``status`` ``"skipped"``) are left out.
+    """
+    trials = usable_trials(trials)
+    grav = condition_gravity(trials)
+    means = {}
+    for label, bodies in conditions.items():
+        fast = trials[(trials["condition"] == label) & (trials["kind"] == "fast")]
+        if len(fast) and label in grav:
+            means[frozenset(bodies)] = (float(fast["inertia"].mean()), grav[label])
+    out = {}
+    for name, prior in priors.items():
+        target = means.get(frozenset([name]))
+        if target is None:
+            for key, (i_b, g_b) in means.items():
+                rest = key - {name}
+                if name in key and rest in means:
+                    i_a, g_a = means[rest]
+                    target = (i_b - i_a, g_b - g_a)
+                    break
+        if target is None or target[0] <= 0 or target[1] <= 0:
+            continue
+        try:
+            out[name] = paper_baseline(
+                inertia=target[0],
+                gravity_moment=target[1],
+                nominal=prior.nominal,
+                lower=prior.lower,
+                upper=prior.upper,
+                gravity=gravity,
+            )
+        except InputError as exc:
+            if notes is not None:
+                notes.append(f"baseline of '{name}' not computed: {exc}")
+    return out
