@@ -58,7 +58,7 @@ import pandas as pd
 from inertiafit._checks import check_positive, check_probability, check_seed, check_whole
 from inertiafit.errors import InputError
 from inertiafit.io.manifest import load_study
-from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder
+from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder, write_csv
 from inertiafit.pipeline.study import DIAGNOSTICS, run_study, study_inputs
 from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 
@@ -628,10 +628,8 @@ def _tables(folder: Path, rows: list[dict[str, Any]]) -> tuple[pd.DataFrame, pd.
         summary = summary[["folder", *(c for c in summary.columns if c != "folder")]]
     else:
         summary = pd.DataFrame(columns=["folder"])
-    table.to_csv(folder / "batch.csv", index=False, float_format="%.8g", lineterminator="\n")
-    summary.to_csv(
-        folder / "batch-summary.csv", index=False, float_format="%.8g", lineterminator="\n"
-    )
+    write_csv(table, folder / "batch.csv")
+    write_csv(summary, folder / "batch-summary.csv")
     return table, summary
 
 
