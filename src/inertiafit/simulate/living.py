@@ -36,14 +36,14 @@ from inertiafit.passive import JOINTS, literature_curve, passive_moment
 from inertiafit.physics import GRAVITY
 from inertiafit.simulate.emg import EmgSimulation, Reflex
 from inertiafit.simulate.emg import truth_lines as emg_truth_lines
-from inertiafit.simulate.files import check_units, toml_value, write_trial_csv
-from inertiafit.simulate.signals import Body, Motion, Noise, simulate_trial
+from inertiafit.simulate.files import check_units, toml_value
+from inertiafit.simulate.signals import Body, Motion, Noise
 from inertiafit.simulate.study import (
+    PlannedTrial,
+    TrialWriter,
     condition_totals,
     emg_manifest_lines,
-    emg_plan,
     manifest_head,
-    trial_entry,
     truth_lines,
 )
 
@@ -111,8 +111,6 @@ _CURVED = ("knee", "ankle")
 _DIRECTIONS = ("up", "down")
 #: File-name suffix of a fast trial's direction.
 _SUFFIX = {"up": "", "down": "_down"}
-#: A planned trial: kind, speed (deg/s; None for a rest trial), motion, file name.
-_Planned = tuple[str, float | None, Motion, str]
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
@@ -237,7 +235,7 @@ class PassiveTruth:
         """The joint's whole moment (N m): ``P + b omega + h smooth_sign(omega)``.
 
         ``angle`` (rad) and ``velocity`` (rad/s) are the device's; a still shaft gets ``P``
-        alone. This is the ``extra_torque`` of :func:`simulate_trial`.
+        alone. This is the ``extra_torque`` of :func:`~inertiafit.simulate.signals.simulate_trial`.
         """
         omega = np.asarray(velocity, dtype=np.float64)
         return (
@@ -591,8 +589,8 @@ def simulate_living_study(
     reflexes: dict[str, Reflex] = {}
 
     # Per condition and posture: its seed and its trials (kind, speed, motion, file name).
-    plans: list[tuple[np.random.SeedSequence, Mounting, str, list[_Planned]]] = []
-    plan: list[_Planned]
+    plans: list[tuple[np.random.SeedSequence, Mounting, str, list[PlannedTrial]]] = []
+    plan: list[PlannedTrial]
     if rigid:  # as simulate_study: the motion as given
         plan = [("quasi-static", quasi_static_speed, motion, "A_quasistatic.csv")]
         plan += [
@@ -604,7 +602,7 @@ def simulate_living_study(
         others = [p for p, (_, tilt) in design.items() if tilt == 0.0][1:]
         if rigid_rotation_sweeps and others:
             for p, pseed in zip(others, rotation_seed.spawn(len(others)), strict=True):
-                sweep: list[_Planned] = [
+                sweep: list[PlannedTrial] = [
                     ("quasi-static", quasi_static_speed, motion, f"A_{p}_quasistatic.csv")
                 ]
                 plans.append((pseed, rigid, p, sweep))
@@ -625,59 +623,34 @@ def simulate_living_study(
         ]
         plans.append((pseed, whole, p, plan))
 
+    writer = TrialWriter(
+        data,
+        angle_unit=angle_unit,
+        torque_unit=torque_unit,
+        time_unit=time_unit,
+        offset=offset,
+        rate=rate,
+        noise=noise,
+        quasi_static_noise=quasi_static_noise,
+        sampling=sampling,
+    )
     for cseed, mounting, p, plan in plans:
         i_total, mg_total = condition_totals(mounting, truth, gravity)
         rotation, tilt = posture_truth[p]
-        for (kind, speed, trial_motion, filename), tseed in zip(
-            plan, cseed.spawn(len(plan)), strict=True
-        ):
-            trial_noise = quasi_static_noise if kind != "fast" and quasi_static_noise else noise
-            extra = passive_truth.torque if mounting is whole else None
-            channels, extra, reflex = emg_plan(
-                emg if mounting is whole else None,
-                tseed,
-                filename,
-                kind,
-                trial_motion,
-                rate,
-                trial_noise,
-                extra,
-            )
-            if reflex is not None:
-                reflexes[filename] = reflex
-            trial = simulate_trial(
-                inertia=i_total,
-                gravity_moment=_tilt_factor(tilt) * mg_total,
-                kind=kind,
-                speed_deg_s=speed,
-                phi=phi + math.radians(rotation),
-                offset=offset,
-                rng=np.random.default_rng(tseed),
-                rate=rate,
-                noise=trial_noise,
-                motion=trial_motion,
-                source=filename,
-                sampling=sampling,
-                extra_torque=extra,
-            )
-            write_trial_csv(
-                data / filename,
-                trial,
-                angle_unit=angle_unit,
-                torque_unit=torque_unit,
-                time_unit=time_unit,
-                emg=channels(trial["time"].values) if channels is not None else None,
-            )
-            own = []
-            if emg is not None and channels is not None:
-                own = [f"emg = {toml_value(list(emg.muscles))}"]
-            lines += trial_entry(
-                filename,
-                mounting.bodies,
-                kind,
-                speed if kind == "fast" else None,
-                extra=[f"posture = {toml_value(p)}", *own],
-            )
+        written, condition_reflexes = writer.write(
+            plan,
+            cseed,
+            bodies=mounting.bodies,
+            inertia=i_total,
+            gravity_moment=_tilt_factor(tilt) * mg_total,
+            phi=phi + math.radians(rotation),
+            emg=emg if mounting is whole else None,
+            extra_torque=passive_truth.torque if mounting is whole else None,
+            entry=[f"posture = {toml_value(p)}"],
+            emg_per_trial=True,
+        )
+        lines += written
+        reflexes.update(condition_reflexes)
 
     manifest = out / "study.toml"
     manifest.write_text("\n".join(lines), encoding="utf-8")

@@ -8,6 +8,7 @@ information of :mod:`inertiafit.io.manifest`, written into the manifest as a lab
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,8 @@ from inertiafit.simulate.files import VELOCITY_UNITS, check_units, toml_value, w
 from inertiafit.simulate.signals import Body, Motion, Noise, simulate_trial
 
 __all__ = [
+    "PlannedTrial",
+    "TrialWriter",
     "condition_totals",
     "emg_manifest_lines",
     "emg_plan",
@@ -221,6 +224,105 @@ def trial_entry(
     return [*lines, *extra, ""]
 
 
+#: A trial to simulate: its kind, preset speed (deg/s; ``None`` for a rest hold), motion
+#: (``None``: :class:`Motion`'s default) and file name under ``data/``.
+PlannedTrial = tuple[str, float | None, Motion | None, str]
+
+
+@dataclass(frozen=True)
+class TrialWriter:
+    """How a simulated study records its trials: where, in which units, on which device.
+
+    ``offset`` (N m), ``rate`` (Hz) and ``sampling`` are :func:`simulate_trial`'s; ``noise``
+    is every trial's noise but a quasi-static sweep's or a rest hold's, which take
+    ``quasi_static_noise`` when given. :meth:`write` writes a condition's trials;
+    :func:`simulate_study` and :func:`~inertiafit.simulate.living.simulate_living_study` both
+    record through it.
+    """
+
+    data: Path
+    angle_unit: str = "deg"
+    torque_unit: str = "N*m"
+    time_unit: str = "s"
+    offset: float = 0.0
+    rate: float = 1000.0
+    noise: Noise | None = None
+    quasi_static_noise: Noise | None = None
+    sampling: str = "instant"
+
+    def write(
+        self,
+        plan: Sequence[PlannedTrial],
+        seed: np.random.SeedSequence,
+        *,
+        bodies: Sequence[str],
+        inertia: float,
+        gravity_moment: float,
+        phi: float,
+        emg: EmgSimulation | None = None,
+        extra_torque: Any = None,
+        entry: Sequence[str] = (),
+        emg_per_trial: bool = False,
+    ) -> tuple[list[str], dict[str, Reflex]]:
+        """One condition's trials written to :attr:`data`, in ``plan``'s order.
+
+        Each trial's seed is spawned from ``seed``; the condition's true ``inertia`` (kg m^2)
+        and ``gravity_moment`` (N m), the device phase ``phi`` (rad) and ``extra_torque`` (a
+        joint's own moment, or ``None``) make its torque; ``emg`` adds its EMG channels.
+        Returns the manifest's ``[[trials]]`` entries (each with the lines ``entry``, and its
+        ``emg`` channels when ``emg_per_trial``) and the stretch reflexes simulated, by file.
+        """
+        lines: list[str] = []
+        reflexes: dict[str, Reflex] = {}
+        for (kind, speed, motion, filename), tseed in zip(
+            plan, seed.spawn(len(plan)), strict=True
+        ):
+            noise = (
+                self.quasi_static_noise
+                if kind != "fast" and self.quasi_static_noise
+                else self.noise
+            )
+            channels, extra, reflex = emg_plan(
+                emg, tseed, filename, kind, motion, self.rate, noise, extra_torque
+            )
+            if reflex is not None:
+                reflexes[filename] = reflex
+            trial = simulate_trial(
+                inertia=inertia,
+                gravity_moment=gravity_moment,
+                kind=kind,
+                speed_deg_s=speed,
+                phi=phi,
+                offset=self.offset,
+                rng=np.random.default_rng(tseed),
+                rate=self.rate,
+                noise=noise,
+                motion=motion,
+                source=filename,
+                sampling=self.sampling,
+                extra_torque=extra,
+            )
+            write_trial_csv(
+                self.data / filename,
+                trial,
+                angle_unit=self.angle_unit,
+                torque_unit=self.torque_unit,
+                time_unit=self.time_unit,
+                emg=channels(trial["time"].values) if channels is not None else None,
+            )
+            own = []
+            if emg_per_trial and emg is not None and channels is not None:
+                own = [f"emg = {toml_value(list(emg.muscles))}"]
+            lines += trial_entry(
+                filename,
+                bodies,
+                kind,
+                speed if kind == "fast" else None,
+                extra=[*entry, *own],
+            )
+        return lines, reflexes
+
+
 def simulate_study(
     out_dir: str | Path,
     *,
@@ -371,54 +473,40 @@ def simulate_study(
     if subject is not None:
         lines += ["[subject]", *(f"{k} = {toml_value(v)}" for k, v in subject.items()), ""]
     reflexes: dict[str, Reflex] = {}
+    writer = TrialWriter(
+        data,
+        angle_unit=angle_unit,
+        torque_unit=torque_unit,
+        time_unit=time_unit,
+        offset=offset,
+        rate=rate,
+        noise=noise,
+        quasi_static_noise=quasi_static_noise,
+        sampling=sampling,
+    )
 
     for label, mounting, cseed in zip(labels, mountings, condition_seeds, strict=True):
         i_total, mg_total = condition_totals(mounting, truth, gravity)
-        plan = [("quasi-static", quasi_static_speed, f"{label}_quasistatic.csv")]
+        plan: list[PlannedTrial] = [
+            ("quasi-static", quasi_static_speed, motion, f"{label}_quasistatic.csv")
+        ]
         plan += [
-            ("fast", float(speed), f"{label}_{speed:g}_{k + 1:02d}.csv")
+            ("fast", float(speed), motion, f"{label}_{speed:g}_{k + 1:02d}.csv")
             for speed in speeds
             for k in range(trials_per_speed)
         ]
-        for (kind, speed, filename), tseed in zip(plan, cseed.spawn(len(plan)), strict=True):
-            trial_noise = (
-                quasi_static_noise if kind == "quasi-static" and quasi_static_noise else noise
-            )
-            channels, extra, reflex = emg_plan(
-                emg, tseed, filename, kind, motion, rate, trial_noise, None
-            )
-            if reflex is not None:
-                reflexes[filename] = reflex
-            trial = simulate_trial(
-                inertia=i_total,
-                gravity_moment=mg_total,
-                kind=kind,
-                speed_deg_s=speed,
-                phi=phi,
-                offset=offset,
-                rng=np.random.default_rng(tseed),
-                rate=rate,
-                noise=trial_noise,
-                motion=motion,
-                source=filename,
-                sampling=sampling,
-                extra_torque=extra,
-            )
-            write_trial_csv(
-                data / filename,
-                trial,
-                angle_unit=angle_unit,
-                torque_unit=torque_unit,
-                time_unit=time_unit,
-                emg=channels(trial["time"].values) if channels is not None else None,
-            )
-            lines += trial_entry(
-                filename,
-                mounting.bodies,
-                kind,
-                speed if kind == "fast" else None,
-                extra=_manifest_lines(mounting),
-            )
+        written, condition_reflexes = writer.write(
+            plan,
+            cseed,
+            bodies=mounting.bodies,
+            inertia=i_total,
+            gravity_moment=mg_total,
+            phi=phi,
+            emg=emg,
+            entry=_manifest_lines(mounting),
+        )
+        lines += written
+        reflexes.update(condition_reflexes)
 
     manifest = out / "study.toml"
     manifest.write_text("\n".join(lines), encoding="utf-8")
