@@ -1,5 +1,6 @@
 """The extension recipes of docs/architecture.md ("Where new things go"), followed literally
-(issue 35, item 5): a trial format, a kind of trial, a manifest table, a figure and a command,
+(issue 35, item 5): a trial format, a kind of trial, a manifest table, a figure, a report section
+and a command,
 each a toy extension defined here, registered as its recipe says, run from its input to the
 output it makes, and unregistered after its test (monkeypatch), so that the other tests see
 the registries as they were. The likelihood term's recipe is held by test_recipe_term.py and
@@ -27,6 +28,7 @@ import pytest
 from inertiafit import cli
 from inertiafit._checks import check_probability
 from inertiafit.errors import InputError
+from inertiafit.formatting import number
 from inertiafit.io import load_study
 from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder, write_csv
 from inertiafit.io.readers.registry import BINARY_FORMATS, READERS, register_reader
@@ -44,6 +46,12 @@ from inertiafit.processing.study import process_study
 from inertiafit.processing.trials import trial_row
 from inertiafit.report import outputs as outputs_module
 from inertiafit.report.figures import FigureRecord
+from inertiafit.report.html import (
+    REPORT_SECTIONS,
+    PageContext,
+    ReportSection,
+    register_report_section,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -360,6 +368,74 @@ def test_a_figure_added_by_the_recipe_is_saved_and_shown(disk_fit, tmp_path, mon
     assert base64.b64encode(png).decode("ascii") in page  # the very file, embedded
     assert page.index(">Diagnostics</h2>") < page.index(caption)  # under its section
     assert caption not in (disk_fit / "report.html").read_text(encoding="utf-8")  # control
+
+
+# -- A report section --------------------------------------------------------------------------
+# A builder that takes the page's PageContext (the result, the HDI's probability, the figures)
+# and returns the section's items, or None when the section does not apply to this result; one
+# ReportSection (its anchor, heading, builder and order) registered with
+# register_report_section (here with the registry restored after the test): report.html shows
+# it where its order puts it, and its table of contents links to it. The toy sections: each
+# body's posterior mass, after the "Posterior" section, and the number of trials, which a fit
+# from reported numbers (no trials) leaves out.
+
+
+def mass_items(page: PageContext) -> list:
+    """Each body's posterior median mass, in a table."""
+    post = page.posterior
+    medians = [float(np.median(post.draws(body, "mass"))) for body in post.bodies]
+    return [
+        "Each body's posterior median mass:",
+        pd.DataFrame({"body": post.bodies, "median mass (kg)": medians}),
+    ]
+
+
+def trial_count_items(page: PageContext) -> list | None:
+    """How many trials the study read; ``None`` (no section) for a fit without trials."""
+    if not len(page.result.trials):
+        return None
+    return [f"{len(page.result.trials)} trials."]
+
+
+@pytest.fixture
+def toy_sections():
+    before = dict(REPORT_SECTIONS)
+    register_report_section(ReportSection("body-masses", "Body masses", mass_items, order=25))
+    register_report_section(ReportSection("trial-count", "Trial count", trial_count_items))
+    yield "body-masses", "trial-count"
+    REPORT_SECTIONS.clear()
+    REPORT_SECTIONS.update(before)
+
+
+def test_a_report_section_added_by_the_recipe_is_shown(toy_sections, disk_fit, tmp_path):
+    folder = _results(disk_fit, tmp_path)
+    assert cli.main(["report", str(folder), "--formats", "png"]) == 0
+    page = (folder / "report.html").read_text(encoding="utf-8")
+    contents = page[page.index("<nav class='toc'") : page.index("</nav>")]
+    assert "<li><a href='#body-masses'>Body masses</a></li>" in contents
+    assert "<h2 id='body-masses'>Body masses</h2>" in page
+    post = open_posterior(folder / "posterior.nc")
+    body = post.bodies[0]
+    shown = number(float(np.median(post.draws(body, "mass"))))
+    # where its order puts it, after "Posterior" and before "What pins what", with its table
+    section = page[page.index("<h2 id='body-masses'>") : page.index("<h2 id='what-pins-what'>")]
+    assert page.index("<h2 id='posterior'>") < page.index("<h2 id='body-masses'>")
+    assert f"{html.escape(body)}</td><td>{shown}</td>" in section
+    assert "Body masses" not in (disk_fit / "report.html").read_text(encoding="utf-8")  # control
+
+
+def test_a_report_section_that_does_not_apply_leaves_no_heading(toy_sections, disk_fit, tmp_path):
+    folder = _results(disk_fit, tmp_path)
+    assert cli.main(["report", str(folder), "--formats", "png"]) == 0
+    page = (folder / "report.html").read_text(encoding="utf-8")
+    assert "Trial count" not in page  # neither a heading nor a line in the contents
+    assert "trial-count" not in page
+    assert "<h2 id='body-masses'>" in page  # the page's other sections as they were
+
+
+def test_the_toy_report_sections_are_gone_after_their_test():
+    assert "body-masses" not in REPORT_SECTIONS
+    assert "trial-count" not in REPORT_SECTIONS
 
 
 # -- A command ---------------------------------------------------------------------------------

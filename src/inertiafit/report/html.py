@@ -7,6 +7,12 @@ prior, and its table), what pins what, priors, comparison, corner plots, identif
 trial figures, speed effect, diagnostics and methods; the long per-trial tables come last,
 folded, before "Inputs and provenance", which lists every input file's SHA-256 and reader
 settings as stored in ``posterior.nc``. Skipped trials, if any, come first.
+
+Each section of that page is a :class:`ReportSection` (its anchor, its heading and the
+function that builds its items from a :class:`PageContext`, or leaves it out) in one ordered
+registry, :data:`REPORT_SECTIONS`, as the figures are records
+(:mod:`inertiafit.report.figures`): a new section is a builder and one
+:func:`register_report_section`.
 """
 
 from __future__ import annotations
@@ -16,7 +22,7 @@ import html
 import io
 import json
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,6 +30,7 @@ from typing import Any
 import pandas as pd
 
 from inertiafit.formatting import number, plural
+from inertiafit.posterior import Posterior
 from inertiafit.posterior.pins import SHARE_NOTE, VERDICT_NOTE
 from inertiafit.report.figures import FigureRecord, figure_records
 from inertiafit.report.methods import methods_html, prior_table
@@ -41,9 +48,12 @@ from inertiafit.report.tables import (
 
 __all__ = [
     "PRIOR_SHARE_NOTE",
+    "REPORT_SECTIONS",
     "Details",
     "Fragment",
     "Heading",
+    "PageContext",
+    "ReportSection",
     "anchors",
     "conflict_items",
     "derived_items",
@@ -52,6 +62,7 @@ __all__ = [
     "prior_items",
     "provenance_line",
     "provenance_table",
+    "register_report_section",
     "skipped_trials",
     "study_report",
     "table_html",
@@ -81,8 +92,10 @@ nav.toc ol { display: flex; flex-wrap: wrap; gap: 0.2em 1.4em; list-style: none;
 """
 
 
-#: The section of the per-trial tables, after the Methods (see :func:`study_report`).
+#: The section of the per-trial tables, after the Methods (see :func:`study_report`), and its
+#: anchor.
 _TRIAL_TABLES = "Trial tables"
+_TRIAL_TABLES_ANCHOR = "trial-tables"
 
 
 class Heading(str):
@@ -269,6 +282,7 @@ def write_report(
     appendix: list | None = None,
     provenance: str | None = None,
     contents: bool = False,
+    ids: Sequence[str] | None = None,
 ) -> Path:
     """Write a self-contained HTML report.
 
@@ -292,6 +306,10 @@ def write_report(
     contents : bool
         Give every section's heading an ``id`` (:func:`anchors`) and list them all, as links,
         in a table of contents under the title.
+    ids : sequence of str, optional
+        With ``contents``, an ``id`` for each section (each lower-case words
+        joined by ``-``, as :func:`anchors` makes them); default: :func:`anchors` of the
+        headings.
 
     Items may also be a :class:`Heading` (``<h3>``), a :class:`Details` (a folded block of
     items) or a :class:`Fragment` (trusted HTML).
@@ -305,16 +323,17 @@ def write_report(
     headings = [heading for heading, _ in sections]
     if notes or appendix:
         headings.append("Inputs and provenance")
-    ids = anchors(headings) if contents else []
+    given = list(ids or [])
+    slugs = anchors([*given, *headings[len(given) :]]) if contents else []
 
     def h2(k: int) -> str:
-        where = f" id='{ids[k]}'" if contents else ""
+        where = f" id='{slugs[k]}'" if contents else ""
         return f"<h2{where}>{html.escape(headings[k])}</h2>"
 
     if contents:
         links = "".join(
             f"<li><a href='#{a}'>{html.escape(h)}</a></li>"
-            for h, a in zip(headings, ids, strict=True)
+            for h, a in zip(headings, slugs, strict=True)
         )
         parts.append(
             f"<nav class='toc' id='contents'><strong>Contents</strong><ol>{links}</ol></nav>"
@@ -346,6 +365,94 @@ def write_report(
     return path
 
 
+#: A section's anchor: lower-case words and digits joined by ``-`` (what :func:`anchors` makes).
+_ANCHOR = re.compile(r"[a-z0-9]+(?:-[a-z0-9]+)*")
+
+
+@dataclass(frozen=True)
+class PageContext:
+    """What a section of ``report.html`` may draw on: the result, the options, the figures.
+
+    ``figures`` holds the PNG of each figure by stem and ``records`` says which section each
+    belongs to (:class:`~inertiafit.report.figures.FigureRecord`); ``placed`` collects the
+    stems :meth:`figures_of` has handed out, so that the page can show the others last.
+    """
+
+    result: Result
+    hdi_prob: float
+    figures: Mapping[str, bytes]
+    records: Sequence[FigureRecord]
+    placed: set[str] = field(default_factory=set)
+
+    @property
+    def posterior(self) -> Posterior:
+        """The result's :class:`~inertiafit.posterior.Posterior`."""
+        return self.result.posterior
+
+    def figures_of(self, section: str) -> list[tuple[str, bytes]]:
+        """The ``(caption, png)`` of every figure drawn for ``section``, in record order."""
+        items = []
+        for record in self.records:
+            if record.section == section and record.stem in self.figures:
+                items.append((record.caption, self.figures[record.stem]))
+                self.placed.add(record.stem)
+        return items
+
+    def unplaced(self) -> list[tuple[str, bytes]]:
+        """The ``(caption, png)`` of every drawn figure no section has shown."""
+        return [
+            (r.caption, self.figures[r.stem])
+            for r in self.records
+            if r.stem in self.figures and r.stem not in self.placed
+        ]
+
+
+@dataclass(frozen=True)
+class ReportSection:
+    """One section of a study's ``report.html``.
+
+    Attributes
+    ----------
+    anchor : str
+        Its heading's ``id`` (the link in the table of contents) and its name in
+        :data:`REPORT_SECTIONS`: lower-case words and digits joined by ``-``.
+    heading : str
+        Its heading (``<h2>``); a figure is shown in the section whose heading is its
+        record's ``section``.
+    build : callable
+        ``build(page)`` gets the :class:`PageContext` and returns the section's items (as
+        :func:`write_report` takes them), or ``None`` when the section does not apply to this
+        result: then the page has no such heading.
+    order : int
+        Where it comes on the page (smaller first); the built-in sections are 10 to 130.
+    """
+
+    anchor: str
+    heading: str
+    build: Callable[[PageContext], list | None]
+    order: int = 200
+
+    def __post_init__(self) -> None:
+        if not _ANCHOR.fullmatch(self.anchor):
+            msg = f"report section {self.anchor!r}: an anchor is lower-case words joined by '-'"
+            raise ValueError(msg)
+
+
+#: Every section of a study's report.html, by anchor, in page order.
+REPORT_SECTIONS: dict[str, ReportSection] = {}
+
+
+def register_report_section(section: ReportSection) -> ReportSection:
+    """Add a section to :data:`REPORT_SECTIONS`, kept in page order (its ``order``)."""
+    if section.anchor in REPORT_SECTIONS:
+        msg = f"report section {section.anchor!r} is registered already"
+        raise ValueError(msg)
+    ordered = sorted([*REPORT_SECTIONS.values(), section], key=lambda s: s.order)
+    REPORT_SECTIONS.clear()
+    REPORT_SECTIONS.update((s.anchor, s) for s in ordered)
+    return section
+
+
 def study_report(
     path: Path,
     result: Result,
@@ -355,9 +462,10 @@ def study_report(
 ) -> Path:
     """The self-contained ``report.html``: tables, embedded figures, diagnostics, provenance.
 
-    The page leads with the answer: its table of contents, then the "Posterior" section with
-    the intervals figure and the summary table; the per-trial tables are folded in the
-    section "Trial tables" after the Methods.
+    Every section of :data:`REPORT_SECTIONS` that applies to ``result``, in order: the page
+    leads with the answer (its table of contents, then the "Posterior" section with the
+    intervals figure and the summary table); the per-trial tables are folded in the section
+    "Trial tables" after the Methods.
 
     ``figures`` holds the PNG of each figure by stem; ``records`` (default
     :func:`~inertiafit.report.figures.figure_records` of ``result``) says where each goes and
@@ -365,215 +473,34 @@ def study_report(
     such section for this result, in a last section "Other figures".
     """
     records = figure_records(result) if records is None else records
-    placed: set[str] = set()
-
-    def figs(section: str) -> list[tuple[str, bytes]]:
-        items = []
-        for record in records:
-            if record.section == section and record.stem in figures:
-                items.append((record.caption, figures[record.stem]))
-                placed.add(record.stem)
-        return items
-
-    post = result.posterior
-    a = post.attrs
-    diag = (
-        f"{a['n_walkers']} walkers, {a['n_steps']} steps ({a['burn']} dropped as burn-in), "
-        f"integrated autocorrelation time tau at most {a['tau_max']:.2f} steps, acceptance "
-        f"{a['acceptance']:.2f}, sampling {a['sampling_seconds']:.1f} s; "
-        + (
-            "converged (chain > 50 tau, R-hat <= 1.01, bulk ESS >= 1000 for every quantity)."
-            if post.converged
-            else "NOT converged: treat the intervals with care."
-        )
-    )
-    summary = result.summary(hdi_prob)
-    skipped = skipped_trials(result.trials)
+    page = PageContext(result, hdi_prob, figures, records)
     sections: list[tuple[str, list]] = []
-    if len(skipped):
-        used = len(result.trials) - len(skipped)
-        sections.append(
-            (
-                "Skipped trials",
-                [
-                    (
-                        f"warn:{len(skipped)} of {len(result.trials)} trials could not be read "
-                        'or processed and were skipped (on_trial_error = "skip"); the posterior, '
-                        f"the speed effect and the paper's estimator use the other {used}."
-                    ),
-                    skipped,
-                ],
-            )
-        )
-    ident = post.identification()
-    sections += [
-        (
-            "Posterior",
-            [
-                (
-                    f"Median and {100 * hdi_prob:g}% highest-density interval of every body's "
-                    f"parameters from one joint posterior over all conditions. {VERDICT_NOTE}."
-                ),
-                *figs("Posterior"),
-                summary_display(summary),
-                post.report(hdi_prob).splitlines()[0] + ".",
-                *(
-                    f"{body}: physical consistency needs m >= (M_g/g)^2/I = "
-                    f"{float(ident.loc[ident.body == body, 'minimum_mass'].iloc[0]):.4g} kg."
-                    for body in post.bodies
-                ),
-                post.calibration_note(),
-                *derived_items(result, hdi_prob),
-            ],
-        ),
-        (
-            "What pins what",
-            [
-                (
-                    "One rotation axis pins only m·x (from M_g) and I per body; where the body "
-                    "sits on the curve of constant m·x and I is decided by the prior unless a "
-                    "weighed mass, a balance point or a second mounting pins it."
-                ),
-                PRIOR_SHARE_NOTE,
-                *post.what_pins_what().values(),
-                *conflict_items(post),
-                identification_display(result.identification()),
-                "Posterior correlations of m, x and rho:",
-                correlation_display(post.correlations()),
-            ],
-        ),
-        ("Priors", prior_items(result)),
-        (
-            "Comparison with ideal bodies and the paper's estimator",
-            [
-                (
-                    "ideal: textbook model declared in the manifest; paper's baseline: the "
-                    "multi-start least squares of Son et al. Eq. (4), feasible-region mean (a "
-                    "body added to another is fitted to the difference of the condition means, "
-                    "as the paper does)."
-                ),
-                comparison_display(result.comparison, hdi_prob),
-            ],
-        ),
-        ("Corner plots", figs("Corner plots")),
-        (
-            "Identification curves",
-            [
-                (
-                    "Rotation about one axis identifies only m·x = M_g/g and I = m (rho^2 + "
-                    "x^2): the bodies that fit the data lie on a curve. Where the data pin m·x "
-                    "and I (see 'What pins what'), the prior box decides where on the curve "
-                    "the body sits."
-                ),
-                *figs("Identification curves"),
-            ],
-        ),
-    ]
-    if result.living:
-        sections.append(
-            (
-                "Living joint",
-                [
-                    (
-                        "A living body's joint adds its passive elastic moment, a hysteresis and "
-                        "a viscous damping to every trial; they are fitted with gravity over the "
-                        "quasi-static and rest trials (the passive coefficients integrated out "
-                        "under their prior) and with the inertia over each fast trial's "
-                        "acceleration and deceleration windows. 'decided by' says what told the "
-                        "gravity moment apart from the passive curve: the passive prior (one "
-                        "posture), or data (a second posture, the horizontal plane)."
-                    ),
-                    passive_display(result.living["passive_parameters"]),
-                    *figs("Living joint"),
-                ],
-            )
-        )
-    tables: list = []
-    if len(result.trials):
-        for title, table in trial_tables(result.trials):
-            tables.append(Details(f"{title} ({plural(len(table), 'trial')})", [table]))
-        sections.append(
-            (
-                "Trials",
-                [
-                    *figs("Trials"),
-                    *(
-                        []
-                        if len(result.traces)
-                        else [
-                            (
-                                "Trial traces not drawn: this output folder has no traces.csv "
-                                "(it is written when the posterior is sampled)."
-                            )
-                        ]
-                    ),
-                    Fragment(
-                        "<p class='note'>Every trial as processed: the tables of each "
-                        "condition and kind of trial are folded under "
-                        f"<a href='#{anchors([_TRIAL_TABLES])[0]}'>{_TRIAL_TABLES}</a>, after the "
-                        "Methods.</p>"
-                    ),
-                ],
-            )
-        )
-        pairs = tukey_display(result.speed_effect)
-        sections.append(
-            (
-                "Speed effect",
-                [
-                    (
-                        "Inertia per condition and speed (mean ± SD over the trials), with the "
-                        "one-way ANOVA across speeds of each condition:"
-                    ),
-                    speed_effect_display(result.speed_effect),
-                    *(
-                        ["Pairs of speeds (Tukey HSD), difference of mean inertias:", pairs]
-                        if len(pairs)
-                        else []
-                    ),
-                ],
-            )
-        )
-    sections.append(
-        (
-            "Diagnostics",
-            [
-                diag,
-                *figs("Diagnostics"),
-                *(["warn:" + w for w in result.warnings] or ["No trial flags."]),
-            ],
-        )
-    )
-    sections.append(
-        (
-            "Methods",
-            [
-                (
-                    "Generated from this analysis; the same text is in methods.md and its "
-                    "references in references.bib, ready to edit into a manuscript."
-                ),
-                Fragment(methods_html(result, table_html)),
-            ],
-        )
-    )
-    if tables:
-        sections.append(
-            (
-                _TRIAL_TABLES,
-                [
-                    (
-                        "Every trial as processed, a table per condition and kind of trial "
-                        "(click to open; trials.csv has every value at full precision)."
-                    ),
-                    *tables,
-                ],
-            )
-        )
-    others = [
-        (r.caption, figures[r.stem]) for r in records if r.stem in figures and r.stem not in placed
-    ]
+    ids: list[str] = []
+    for section in REPORT_SECTIONS.values():
+        items = section.build(page)
+        if items is not None:
+            sections.append((section.heading, items))
+            ids.append(section.anchor)
+    others = page.unplaced()
     if others:
         sections.append(("Other figures", others))
+        ids.append("other-figures")
+    notes, appendix, files = _inputs(result)
+    return write_report(
+        path,
+        title=f"inertiafit: {result.name}",
+        sections=sections,
+        notes=notes,
+        appendix=appendix,
+        provenance=provenance_line(result, files),
+        contents=True,
+        ids=ids,
+    )
+
+
+def _inputs(result: Result) -> tuple[dict[str, object], list, pd.DataFrame]:
+    """The notes and appendix of "Inputs and provenance", and the input files' table."""
+    a = result.posterior.attrs
     notes = {
         "study": result.name,
         "manifest": result.manifest,
@@ -599,15 +526,214 @@ def study_report(
         ]
     elif not result.from_numbers:
         notes["input files"] = "not recorded (posterior.nc written before inertiafit kept them)"
-    return write_report(
-        path,
-        title=f"inertiafit: {result.name}",
-        sections=sections,
-        notes=notes,
-        appendix=appendix,
-        provenance=provenance_line(result, files),
-        contents=True,
+    return notes, appendix, files
+
+
+# -- The sections, in page order ---------------------------------------------------------------
+
+
+def _skipped_section(page: PageContext) -> list | None:
+    """The trials set aside under ``on_trial_error = "skip"``, first, when there are any."""
+    trials = page.result.trials
+    skipped = skipped_trials(trials)
+    if not len(skipped):
+        return None
+    used = len(trials) - len(skipped)
+    return [
+        (
+            f"warn:{len(skipped)} of {len(trials)} trials could not be read "
+            'or processed and were skipped (on_trial_error = "skip"); the posterior, '
+            f"the speed effect and the paper's estimator use the other {used}."
+        ),
+        skipped,
+    ]
+
+
+def _posterior_section(page: PageContext) -> list:
+    """The answer: the intervals figure, the summary table, the derived quantities folded."""
+    post, hdi_prob = page.posterior, page.hdi_prob
+    ident = post.identification()
+    return [
+        (
+            f"Median and {100 * hdi_prob:g}% highest-density interval of every body's "
+            f"parameters from one joint posterior over all conditions. {VERDICT_NOTE}."
+        ),
+        *page.figures_of("Posterior"),
+        summary_display(page.result.summary(hdi_prob)),
+        post.report(hdi_prob).splitlines()[0] + ".",
+        *(
+            f"{body}: physical consistency needs m >= (M_g/g)^2/I = "
+            f"{float(ident.loc[ident.body == body, 'minimum_mass'].iloc[0]):.4g} kg."
+            for body in post.bodies
+        ),
+        post.calibration_note(),
+        *derived_items(page.result, hdi_prob),
+    ]
+
+
+def _pins_section(page: PageContext) -> list:
+    """Who decides each quantity, the prior-data check, the posterior correlations."""
+    post = page.posterior
+    return [
+        (
+            "One rotation axis pins only m·x (from M_g) and I per body; where the body "
+            "sits on the curve of constant m·x and I is decided by the prior unless a "
+            "weighed mass, a balance point or a second mounting pins it."
+        ),
+        PRIOR_SHARE_NOTE,
+        *post.what_pins_what().values(),
+        *conflict_items(post),
+        identification_display(page.result.identification()),
+        "Posterior correlations of m, x and rho:",
+        correlation_display(post.correlations()),
+    ]
+
+
+def _priors_section(page: PageContext) -> list:
+    """Each body's prior (:func:`prior_items`)."""
+    return prior_items(page.result)
+
+
+def _comparison_section(page: PageContext) -> list:
+    """The comparison table: prior, ideal body, posterior and the paper's estimator."""
+    return [
+        (
+            "ideal: textbook model declared in the manifest; paper's baseline: the "
+            "multi-start least squares of Son et al. Eq. (4), feasible-region mean (a "
+            "body added to another is fitted to the difference of the condition means, "
+            "as the paper does)."
+        ),
+        comparison_display(page.result.comparison, page.hdi_prob),
+    ]
+
+
+def _corner_section(page: PageContext) -> list:
+    """The corner plots, one per body."""
+    return page.figures_of("Corner plots")
+
+
+def _identification_section(page: PageContext) -> list:
+    """The identification curves: where on the curve the data leave each body."""
+    return [
+        (
+            "Rotation about one axis identifies only m·x = M_g/g and I = m (rho^2 + "
+            "x^2): the bodies that fit the data lie on a curve. Where the data pin m·x "
+            "and I (see 'What pins what'), the prior box decides where on the curve "
+            "the body sits."
+        ),
+        *page.figures_of("Identification curves"),
+    ]
+
+
+def _living_section(page: PageContext) -> list | None:
+    """A living body's joint: its passive parameters and figures; none for a rigid study."""
+    if not page.result.living:
+        return None
+    return [
+        (
+            "A living body's joint adds its passive elastic moment, a hysteresis and "
+            "a viscous damping to every trial; they are fitted with gravity over the "
+            "quasi-static and rest trials (the passive coefficients integrated out "
+            "under their prior) and with the inertia over each fast trial's "
+            "acceleration and deceleration windows. 'decided by' says what told the "
+            "gravity moment apart from the passive curve: the passive prior (one "
+            "posture), or data (a second posture, the horizontal plane)."
+        ),
+        passive_display(page.result.living["passive_parameters"]),
+        *page.figures_of("Living joint"),
+    ]
+
+
+def _trials_section(page: PageContext) -> list | None:
+    """The trial figures and a link to the folded tables; none without trials."""
+    result = page.result
+    if not len(result.trials):
+        return None
+    no_traces = (
+        "Trial traces not drawn: this output folder has no traces.csv "
+        "(it is written when the posterior is sampled)."
     )
+    return [
+        *page.figures_of("Trials"),
+        *([] if len(result.traces) else [no_traces]),
+        Fragment(
+            "<p class='note'>Every trial as processed: the tables of each "
+            "condition and kind of trial are folded under "
+            f"<a href='#{_TRIAL_TABLES_ANCHOR}'>{_TRIAL_TABLES}</a>, after the "
+            "Methods.</p>"
+        ),
+    ]
+
+
+def _speed_section(page: PageContext) -> list | None:
+    """The inertia per condition and speed, the ANOVA and Tukey pairs; none without trials."""
+    result = page.result
+    if not len(result.trials):
+        return None
+    pairs = tukey_display(result.speed_effect)
+    return [
+        (
+            "Inertia per condition and speed (mean ± SD over the trials), with the "
+            "one-way ANOVA across speeds of each condition:"
+        ),
+        speed_effect_display(result.speed_effect),
+        *(
+            ["Pairs of speeds (Tukey HSD), difference of mean inertias:", pairs]
+            if len(pairs)
+            else []
+        ),
+    ]
+
+
+def _diagnostics_section(page: PageContext) -> list:
+    """The sampler's run and convergence, its figures, every trial flag."""
+    post = page.posterior
+    a = post.attrs
+    run = (
+        f"{a['n_walkers']} walkers, {a['n_steps']} steps ({a['burn']} dropped as burn-in), "
+        f"integrated autocorrelation time tau at most {a['tau_max']:.2f} steps, acceptance "
+        f"{a['acceptance']:.2f}, sampling {a['sampling_seconds']:.1f} s; "
+        + (
+            "converged (chain > 50 tau, R-hat <= 1.01, bulk ESS >= 1000 for every quantity)."
+            if post.converged
+            else "NOT converged: treat the intervals with care."
+        )
+    )
+    return [
+        run,
+        *page.figures_of("Diagnostics"),
+        *(["warn:" + w for w in page.result.warnings] or ["No trial flags."]),
+    ]
+
+
+def _methods_section(page: PageContext) -> list:
+    """The Methods text, as methods.md has it."""
+    return [
+        (
+            "Generated from this analysis; the same text is in methods.md and its "
+            "references in references.bib, ready to edit into a manuscript."
+        ),
+        Fragment(methods_html(page.result, table_html)),
+    ]
+
+
+def _trial_tables_section(page: PageContext) -> list | None:
+    """Every trial as processed, a folded table per condition and kind; none without trials."""
+    if not len(page.result.trials):
+        return None
+    tables = [
+        Details(f"{title} ({plural(len(table), 'trial')})", [table])
+        for title, table in trial_tables(page.result.trials)
+    ]
+    if not tables:
+        return None
+    return [
+        (
+            "Every trial as processed, a table per condition and kind of trial "
+            "(click to open; trials.csv has every value at full precision)."
+        ),
+        *tables,
+    ]
 
 
 #: What the "prior share" column means, where report.html shows it.
@@ -722,3 +848,30 @@ def provenance_line(result: Result, files: pd.DataFrame) -> str:
         + f", the manifest and {plural(priors, 'prior')}, each with its SHA-256 and reader "
         f"settings; {tail}. Click for every file."
     )
+
+
+# -- The built-in sections, registered in page order ---------------------------------------------
+register_report_section(ReportSection("skipped-trials", "Skipped trials", _skipped_section, 10))
+register_report_section(ReportSection("posterior", "Posterior", _posterior_section, 20))
+register_report_section(ReportSection("what-pins-what", "What pins what", _pins_section, 30))
+register_report_section(ReportSection("priors", "Priors", _priors_section, 40))
+register_report_section(
+    ReportSection(
+        "comparison-with-ideal-bodies-and-the-paper-s-estimator",
+        "Comparison with ideal bodies and the paper's estimator",
+        _comparison_section,
+        50,
+    )
+)
+register_report_section(ReportSection("corner-plots", "Corner plots", _corner_section, 60))
+register_report_section(
+    ReportSection("identification-curves", "Identification curves", _identification_section, 70)
+)
+register_report_section(ReportSection("living-joint", "Living joint", _living_section, 80))
+register_report_section(ReportSection("trials", "Trials", _trials_section, 90))
+register_report_section(ReportSection("speed-effect", "Speed effect", _speed_section, 100))
+register_report_section(ReportSection("diagnostics", "Diagnostics", _diagnostics_section, 110))
+register_report_section(ReportSection("methods", "Methods", _methods_section, 120))
+register_report_section(
+    ReportSection(_TRIAL_TABLES_ANCHOR, _TRIAL_TABLES, _trial_tables_section, 130)
+)
