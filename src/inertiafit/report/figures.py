@@ -2,25 +2,35 @@
 
 A figure is a :class:`FigureRecord`: its file stem, the function that draws it, the section of
 ``report.html`` it appears in, its caption there, and (rarely) the formats it is limited to.
-:func:`figure_records` lists every figure of a :class:`~inertiafit.report.result.Result`;
-:func:`~inertiafit.report.outputs.write_outputs` saves each record and
-:func:`~inertiafit.report.html.study_report` embeds each under its section, so a new figure is
-a plot function in :mod:`inertiafit.report.plots` and one record here.
+The figures are registered by topic in :data:`FIGURES`: each function registered with
+:func:`register_figure` gives its topic's records of a
+:class:`~inertiafit.report.result.Result`. :func:`figure_records` lists every topic's, in the
+order they were registered; :func:`~inertiafit.report.outputs.write_outputs` saves each record
+and :func:`~inertiafit.report.html.study_report` embeds each under its section, so a new figure
+is a plot function in :mod:`inertiafit.report.plots` and one registered function (or one record
+in a topic here).
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from inertiafit.processing.study import usable_trials
 from inertiafit.report import plots
 from inertiafit.report.result import Result, traces_by_condition
 
-__all__ = ["FIGURE_SECTIONS", "FigureRecord", "figure_records"]
+__all__ = [
+    "FIGURES",
+    "FIGURE_SECTIONS",
+    "FigureRecord",
+    "FigureTopic",
+    "figure_records",
+    "register_figure",
+]
 
 #: The sections of report.html that hold figures, in page order.
 FIGURE_SECTIONS = (
@@ -87,16 +97,56 @@ class FigureRecord:
         return asked if self.formats is None else tuple(f for f in asked if f in self.formats)
 
 
+#: A function giving one topic's figures of a result (none when the result has nothing to show).
+FigureTopic = Callable[[Result], Iterable[FigureRecord]]
+_F = TypeVar("_F", bound=FigureTopic)
+
+#: The figures of a result by topic, in registration order (:func:`register_figure`): the
+#: order :func:`figure_records` lists them in, so the order report.html shows a section's.
+FIGURES: dict[str, FigureTopic] = {}
+
+
+def register_figure(name: str) -> Callable[[_F], _F]:
+    """Register a function giving the figures of topic ``name`` of a result (a decorator).
+
+    The function takes a :class:`~inertiafit.report.result.Result` and returns (or yields) the
+    topic's records (:class:`FigureRecord`), none when the result has nothing to show; every
+    :func:`figure_records` call then lists them after the topics registered before it. Each
+    record draws only when called, through a picklable function (a module-level function or
+    a :func:`functools.partial` of one): the figures may be drawn in worker processes.
+
+    Raises
+    ------
+    ValueError
+        When a topic of that name is registered already.
+    """
+
+    def decorator(func: _F) -> _F:
+        if name in FIGURES:
+            msg = f"figures {name!r} are registered already"
+            raise ValueError(msg)
+        FIGURES[name] = func
+        return func
+
+    return decorator
+
+
 def figure_records(result: Result) -> list[FigureRecord]:
-    """Every figure of ``result``, in the order report.html shows them.
+    """Every figure of ``result``: each topic's of :data:`FIGURES`, in registration order.
 
     Each record draws its figure only when called: drawing one figure at a time, saving and
     dropping it, keeps one figure in memory rather than all of them.
     """
+    return [record for figures in FIGURES.values() for record in figures(result)]
+
+
+@register_figure("intervals")
+def _intervals_figures(result: Result) -> list[FigureRecord]:
+    """The first figure: every body's quantities, posterior against prior."""
     post = result.posterior
+    pct = f"{100 * result.hdi_prob:g}%"
     records: list[FigureRecord] = []
     add = records.append
-    pct = f"{100 * result.hdi_prob:g}%"
     add(
         FigureRecord(
             "intervals",
@@ -109,6 +159,15 @@ def figure_records(result: Result) -> list[FigureRecord]:
             "right the posterior median and HDI in SI units",
         )
     )
+    return records
+
+
+@register_figure("corner")
+def _corner_figures(result: Result) -> list[FigureRecord]:
+    """Each body's corner plot, and all bodies' together when there are several."""
+    post = result.posterior
+    records: list[FigureRecord] = []
+    add = records.append
     for body in post.bodies:
         add(
             FigureRecord(
@@ -138,6 +197,15 @@ def figure_records(result: Result) -> list[FigureRecord]:
                 "all bodies together",
             )
         )
+    return records
+
+
+@register_figure("identification")
+def _identification_figures(result: Result) -> list[FigureRecord]:
+    """Each body's identification curve."""
+    post = result.posterior
+    records: list[FigureRecord] = []
+    add = records.append
     for body in post.bodies:
         add(
             FigureRecord(
@@ -153,6 +221,14 @@ def figure_records(result: Result) -> list[FigureRecord]:
                 "and the paper's per-start solutions",
             )
         )
+    return records
+
+
+@register_figure("living")
+def _living_figures(result: Result) -> list[FigureRecord]:
+    """A living joint's passive curve and static fit."""
+    records: list[FigureRecord] = []
+    add = records.append
     if result.living:
         add(
             FigureRecord(
@@ -178,6 +254,14 @@ def figure_records(result: Result) -> list[FigureRecord]:
                     "the passive curve left in each trial",
                 )
             )
+    return records
+
+
+@register_figure("trials")
+def _trials_figures(result: Result) -> list[FigureRecord]:
+    """The trials: fast trials, gravity fits, torque against acceleration, EMG, inertia by speed."""
+    records: list[FigureRecord] = []
+    add = records.append
     if len(result.trials):
         for cond, traces in traces_by_condition(result.traces).items():
             if any("deceleration" in t for t in traces):  # a living body's: I and b together
@@ -257,6 +341,15 @@ def figure_records(result: Result) -> list[FigureRecord]:
                     "inertia per trial and speed (mean ± SD)",
                 )
             )
+    return records
+
+
+@register_figure("diagnostics")
+def _diagnostics_figures(result: Result) -> list[FigureRecord]:
+    """Each body's walker traces and rank plots."""
+    post = result.posterior
+    records: list[FigureRecord] = []
+    add = records.append
     for body in post.bodies:
         add(
             FigureRecord(
