@@ -1,10 +1,10 @@
 """Command line: ``inertiafit fit | run | run-many | demo | report | plan | priors``.
 
 The command line only parses arguments and calls the library: one pipeline function per
-command. Each command is one block below, a class holding its help, its options
-(``arguments``) and its handler (``run``), registered with :func:`_command` in the order
-``--help`` lists them. Options several commands share are defined once (``_add_out`` and the
-others). The library checks the values; bad input ends with one line on stderr
+command. Each command is one block below, a :class:`Command` holding its help, its options
+(``arguments``) and its handler (``run``), registered with :func:`register_command` in the
+order ``--help`` lists them (:data:`COMMANDS`). Options several commands share are defined once
+(:func:`add_out`, :func:`add_seed`, :func:`add_hdi_prob`, :func:`add_formats`). The library checks the values; bad input ends with one line on stderr
 (``inertiafit: error: ...``) and exit status 2, never a traceback.
 """
 
@@ -25,7 +25,17 @@ from inertiafit._checks import check_seed
 from inertiafit.errors import InputError
 from inertiafit.plotting.style import figure_dpi
 
-__all__ = ["build_parser", "main"]
+__all__ = [
+    "COMMANDS",
+    "Command",
+    "add_formats",
+    "add_hdi_prob",
+    "add_out",
+    "add_seed",
+    "build_parser",
+    "main",
+    "register_command",
+]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -74,7 +84,8 @@ def _formats(text: str) -> list[str]:
 # --- options shared by several commands, each defined once ------------------------------------
 
 
-def _add_out(p: argparse.ArgumentParser, default: str | None, help: str | None = None) -> None:
+def add_out(p: argparse.ArgumentParser, default: str | None, help: str | None = None) -> None:
+    """``--out``: the output folder, required when ``default`` is ``None``."""
     if default is None:
         p.add_argument("--out", type=Path, required=True, help=help)
     else:
@@ -86,19 +97,22 @@ def _add_out(p: argparse.ArgumentParser, default: str | None, help: str | None =
         )
 
 
-def _add_seed(p: argparse.ArgumentParser, help: str = "seed of every random draw (default 0)"):
+def add_seed(p: argparse.ArgumentParser, help: str = "seed of every random draw (default 0)"):
+    """``--seed``: checked while parsing, before any work (default 0)."""
     p.add_argument("--seed", type=_seed, default=0, help=help)
 
 
-def _add_hdi_prob(
+def add_hdi_prob(
     p: argparse.ArgumentParser,
     default: float | None = 0.95,
     help: str = "probability of the highest-density intervals (default 0.95)",
 ) -> None:
+    """``--hdi-prob``: a number, checked by the library (default 0.95)."""
     p.add_argument("--hdi-prob", type=_number, default=default, help=help)
 
 
-def _add_formats(p: argparse.ArgumentParser) -> None:
+def add_formats(p: argparse.ArgumentParser) -> None:
+    """``--formats``: the figure formats, comma-separated (default png)."""
     p.add_argument(
         "--formats",
         type=_formats,
@@ -110,16 +124,21 @@ def _add_formats(p: argparse.ArgumentParser) -> None:
 
 def _add_common(p: argparse.ArgumentParser, default_out: str) -> None:
     """``--out``, ``--seed`` and ``--hdi-prob`` of a command that samples."""
-    _add_out(p, default_out)
-    _add_seed(p)
-    _add_hdi_prob(p)
+    add_out(p, default_out)
+    add_seed(p)
+    add_hdi_prob(p)
 
 
 # --- the commands ------------------------------------------------------------------------------
 
 
-class _Command:
-    """One command: its name and help, its options and its handler."""
+class Command:
+    """One command: its name and help, its options and its handler (:func:`register_command`).
+
+    ``arguments`` adds its options to its subparser; ``run`` calls the library with them and
+    returns the exit status. A library :class:`~inertiafit.errors.InputError` raised in
+    ``run`` is shown as one line in the options' words (exit status 2).
+    """
 
     name: ClassVar[str]
     help: ClassVar[str]
@@ -135,17 +154,32 @@ class _Command:
         raise NotImplementedError
 
 
-_COMMANDS: list[type[_Command]] = []
+#: The commands by name, in the order ``--help`` lists them (:func:`register_command`).
+COMMANDS: dict[str, type[Command]] = {}
 
 
-def _command(cls: type[_Command]) -> type[_Command]:
-    """Register a command (``--help`` lists them in this order)."""
-    _COMMANDS.append(cls)
+def register_command[C: type[Command]](cls: C) -> C:
+    """Register a command (a class decorator): ``inertiafit <cls.name>`` runs ``cls.run``.
+
+    ``cls`` subclasses :class:`Command`: its ``name`` and ``help``, its options
+    (``arguments``, the shared ones through :func:`add_out`, :func:`add_seed`,
+    :func:`add_hdi_prob` and :func:`add_formats`) and its handler (``run``), which only calls
+    the library. ``--help`` lists the commands in the order they were registered.
+
+    Raises
+    ------
+    ValueError
+        When a command of that name is registered already.
+    """
+    if cls.name in COMMANDS:
+        msg = f"command {cls.name!r} is registered already"
+        raise ValueError(msg)
+    COMMANDS[cls.name] = cls
     return cls
 
 
-@_command
-class _Fit(_Command):
+@register_command
+class _Fit(Command):
     name = "fit"
     help = "one body from numbers: inertia and gravity moment"
     description = (
@@ -256,7 +290,7 @@ class _Fit(_Command):
             help="SD of that balance point, m",
         )
         _add_common(p, "inertiafit-output")
-        _add_formats(p)
+        add_formats(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -286,8 +320,8 @@ class _Fit(_Command):
         return 0
 
 
-@_command
-class _Run(_Command):
+@register_command
+class _Run(Command):
     name = "run"
     help = "the whole pipeline on a study manifest and its trial files"
     description = (
@@ -303,7 +337,7 @@ class _Run(_Command):
     def arguments(p: argparse.ArgumentParser) -> None:
         p.add_argument("study", type=Path, metavar="STUDY", help="the study manifest (TOML)")
         _add_common(p, "inertiafit-output")
-        _add_formats(p)
+        add_formats(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -320,8 +354,8 @@ class _Run(_Command):
         return 0
 
 
-@_command
-class _RunMany(_Command):
+@register_command
+class _RunMany(Command):
     name = "run-many"
     help = "run a batch of studies, on a Dask cluster or on this machine"
     description = (
@@ -341,7 +375,7 @@ class _RunMany(_Command):
         p.add_argument(
             "studies", type=Path, nargs="+", metavar="STUDY", help="study manifests (TOML)"
         )
-        _add_out(p, None, help="batch folder, replaced whole; a subfolder per study")
+        add_out(p, None, help="batch folder, replaced whole; a subfolder per study")
         p.add_argument(
             "--scheduler",
             metavar="ADDR",
@@ -362,9 +396,9 @@ class _RunMany(_Command):
             metavar="S",
             help="seconds to wait for --scheduler (default 10)",
         )
-        _add_seed(p, help="seed of every study's sampler (default 0)")
-        _add_hdi_prob(p)
-        _add_formats(p)
+        add_seed(p, help="seed of every study's sampler (default 0)")
+        add_hdi_prob(p)
+        add_formats(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -395,8 +429,8 @@ class _RunMany(_Command):
         return 0
 
 
-@_command
-class _Demo(_Command):
+@register_command
+class _Demo(Command):
     name = "demo"
     help = "simulate the paper's experiment and run it end to end"
     description = (
@@ -418,8 +452,8 @@ class _Demo(_Command):
         return 0
 
 
-@_command
-class _Population(_Command):
+@register_command
+class _Population(Command):
     name = "population"
     help = "pool many subjects' studies into a population: regressions with scatter"
     description = (
@@ -438,16 +472,16 @@ class _Population(_Command):
         p.add_argument(
             "sources", type=Path, nargs="+", metavar="DIR", help="run, fit or run-many outputs"
         )
-        _add_out(p, "population-output")
+        add_out(p, "population-output")
         p.add_argument(
             "--bodies",
             metavar="NAMES",
             help="comma-separated bodies to pool (default: every body in 3 or more studies "
             "with its covariates recorded)",
         )
-        _add_seed(p)
-        _add_hdi_prob(p)
-        _add_formats(p)
+        add_seed(p)
+        add_hdi_prob(p)
+        add_formats(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -473,8 +507,8 @@ class _Population(_Command):
         return 0
 
 
-@_command
-class _Report(_Command):
+@register_command
+class _Report(Command):
     name = "report"
     help = "redraw the tables, figures and report.html of an output folder"
     description = (
@@ -485,8 +519,8 @@ class _Report(_Command):
     @staticmethod
     def arguments(p: argparse.ArgumentParser) -> None:
         p.add_argument("folder", type=Path, metavar="DIR", help="an output folder")
-        _add_formats(p)
-        _add_hdi_prob(p)
+        add_formats(p)
+        add_hdi_prob(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -496,8 +530,8 @@ class _Report(_Command):
         return 0
 
 
-@_command
-class _Export(_Command):
+@register_command
+class _Export(Command):
     name = "export"
     help = "a results folder's posterior as model files (biorbd .bioMod, OpenSim .osim, JSON)"
     description = (
@@ -522,14 +556,14 @@ class _Export(_Command):
             help="biomod (biorbd), osim (OpenSim 4), json, or a format registered with "
             "inertiafit.report.export.register_format",
         )
-        _add_out(p, None, "output folder, replaced whole")
+        add_out(p, None, "output folder, replaced whole")
         p.add_argument(
             "--draws",
             type=_count,
             metavar="N",
             help="also write N models sampled from the posterior (draws/)",
         )
-        _add_seed(p, "seed of the draws (default 0)")
+        add_seed(p, "seed of the draws (default 0)")
         p.add_argument(
             "--declare", type=Path, metavar="FILE", help="a TOML file of [bodies.<name>] tables"
         )
@@ -640,8 +674,8 @@ def _pairs(items: list[str], option: str, what: str) -> dict[str, float]:
     return out
 
 
-@_command
-class _Plan(_Command):
+@register_command
+class _Plan(Command):
     name = "plan"
     help = "predicted posterior widths of candidate designs, before a session"
     description = (
@@ -690,12 +724,12 @@ class _Plan(_Command):
             metavar="BODY.PARAMETER=WIDTH",
             help="requested HDI width (SI units), e.g. forearm.mass=0.2",
         )
-        _add_out(p, "inertiafit-plan")
-        _add_seed(p, help="seed (default 0)")
-        _add_hdi_prob(
+        add_out(p, "inertiafit-plan")
+        add_seed(p, help="seed (default 0)")
+        add_hdi_prob(
             p, default=None, help="probability of the HDIs (default: the design file's, else 0.95)"
         )
-        _add_formats(p)
+        add_formats(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -723,8 +757,8 @@ class _Plan(_Command):
         return 0
 
 
-@_command
-class _Priors(_Command):
+@register_command
+class _Priors(Command):
     name = "priors"
     help = "list the shipped priors"
 
@@ -748,7 +782,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"inertiafit {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for command in _COMMANDS:
+    for command in COMMANDS.values():
         p = sub.add_parser(command.name, help=command.help, description=command.description)
         command.arguments(p)
         p.set_defaults(handler=command.run)
