@@ -44,8 +44,7 @@ from inertiafit.posterior import open_posterior
 from inertiafit.processing.kinds import KINDS, Stage, register_kind
 from inertiafit.processing.study import process_study
 from inertiafit.processing.trials import trial_row
-from inertiafit.report import outputs as outputs_module
-from inertiafit.report.figures import FigureRecord
+from inertiafit.report.figures import FIGURES, FigureRecord, register_figure
 from inertiafit.report.html import (
     REPORT_SECTIONS,
     PageContext,
@@ -59,6 +58,7 @@ if TYPE_CHECKING:
 
     from inertiafit.io import TrialSpec
     from inertiafit.posterior import Posterior
+    from inertiafit.report.result import Result
 
 
 def _study(study_out: Path, tmp_path: Path) -> Path:
@@ -312,8 +312,9 @@ def test_a_manifest_table_added_by_the_recipe_reaches_the_study(room, study_out,
 
 # -- A figure ----------------------------------------------------------------------------------
 # Step 1: a function that takes a Posterior and returns a Matplotlib Figure without touching
-# global state, styled through plotting.style; step 2: one FigureRecord in figure_records (here
-# the function wrapped, through monkeypatch): write_outputs saves it, report.html shows it.
+# global state, styled through plotting.style; step 2: a function giving its FigureRecords of a
+# result, registered with register_figure (in the fixture below, so that it is removed after
+# the test): write_outputs saves every record, report.html shows each under its section.
 
 
 def plot_mass_draws(posterior: Posterior, body: str, *, width="single") -> Figure:
@@ -327,9 +328,8 @@ def plot_mass_draws(posterior: Posterior, body: str, *, width="single") -> Figur
     return fig
 
 
-def with_mass_draws(result):
-    """figure_records with the toy's record, as step 2 adds it (the toy's alone: the others
-    are drawn by test_report_command.py, and drawing them here would test nothing more)."""
+def mass_draws_figures(result: Result) -> list[FigureRecord]:
+    """The toy's records of a result: one per body, in the "Diagnostics" section."""
     post = result.posterior
     return [
         FigureRecord(
@@ -342,7 +342,14 @@ def with_mass_draws(result):
     ]
 
 
-def test_a_figure_added_by_the_recipe_is_saved_and_shown(disk_fit, tmp_path, monkeypatch):
+@pytest.fixture
+def mass_draws():
+    register_figure("mass-draws")(mass_draws_figures)
+    yield "mass-draws"
+    FIGURES.pop("mass-draws", None)
+
+
+def test_a_figure_added_by_the_recipe_is_saved_and_shown(mass_draws, disk_fit, tmp_path):
     import matplotlib.pyplot as plt
 
     folder = _results(disk_fit, tmp_path)
@@ -350,24 +357,24 @@ def test_a_figure_added_by_the_recipe_is_saved_and_shown(disk_fit, tmp_path, mon
     open_figures = plt.get_fignums()
     assert plot_mass_draws(post, post.bodies[0]).axes[0].get_xlabel()
     assert plt.get_fignums() == open_figures  # no global state
+    with pytest.raises(ValueError, match="registered already"):
+        register_figure(mass_draws)(mass_draws_figures)
 
-    drawn = []
-    monkeypatch.setattr(
-        outputs_module,
-        "figure_records",
-        lambda result: drawn.extend(with_mass_draws(result)) or drawn,
-    )
     assert cli.main(["report", str(folder), "--formats", "png"]) == 0
-    (toy,) = drawn
-    assert toy.stem == f"mass-draws-{post.bodies[0]}"
-    png = (folder / f"{toy.stem}.png").read_bytes()
+    (body,) = post.bodies
+    stem, caption = f"mass-draws-{body}", html.escape(f"{body}: the posterior draws of the mass")
+    png = (folder / f"{stem}.png").read_bytes()
     assert png[:4] == b"\x89PNG"
     page = (folder / "report.html").read_text(encoding="utf-8")
-    caption = html.escape(toy.caption)
     assert f"<img alt='{caption}'" in page
     assert base64.b64encode(png).decode("ascii") in page  # the very file, embedded
-    assert page.index(">Diagnostics</h2>") < page.index(caption)  # under its section
+    assert page.index(">Diagnostics</h2>") < page.index(caption)  # under its section,
+    assert page.index(html.escape(f"{body}: rank plots")) < page.index(caption)  # registered last
     assert caption not in (disk_fit / "report.html").read_text(encoding="utf-8")  # control
+
+
+def test_the_toy_figure_is_gone_after_its_test():
+    assert "mass-draws" not in FIGURES
 
 
 # -- A report section --------------------------------------------------------------------------
@@ -440,10 +447,10 @@ def test_the_toy_report_sections_are_gone_after_their_test():
 
 # -- A command ---------------------------------------------------------------------------------
 # Step 1: a function decorated with guard_outputs that first calls check_out(out, inputs=...),
-# then reads its inputs and writes through output_folder; step 2: one _Command block
-# registered with _command (here into a copy of the list, through monkeypatch) whose handler
-# only calls it. The toy command: `inertiafit masses DIR --out OUT`, each body's posterior
-# mass (median and central interval) as masses.csv.
+# then reads its inputs and writes through output_folder; step 2: one cli.Command block
+# registered with cli.register_command (in the fixture below, so that it is removed after the
+# test) whose handler only calls it. The toy command: `inertiafit masses DIR --out OUT`, each
+# body's posterior mass (median and central interval) as masses.csv.
 
 
 @guard_outputs
@@ -464,15 +471,15 @@ def run_masses(folder: str | Path, *, out: str | Path, hdi_prob: float = 0.95) -
     return Path(out)
 
 
-class _Masses(cli._Command):
+class Masses(cli.Command):
     name = "masses"
     help = "each body's posterior mass from a results folder"
 
     @staticmethod
     def arguments(p: argparse.ArgumentParser) -> None:
         p.add_argument("folder", type=Path, metavar="DIR", help="an output folder")
-        cli._add_out(p, None)
-        cli._add_hdi_prob(p)
+        cli.add_out(p, None)
+        cli.add_hdi_prob(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -481,10 +488,10 @@ class _Masses(cli._Command):
 
 
 @pytest.fixture
-def masses(monkeypatch):
-    monkeypatch.setattr(cli, "_COMMANDS", list(cli._COMMANDS))
-    cli._command(_Masses)
-    return "masses"
+def masses():
+    cli.register_command(Masses)
+    yield Masses.name
+    cli.COMMANDS.pop(Masses.name, None)
 
 
 def test_a_command_added_by_the_recipe_runs_from_main(masses, disk_fit, tmp_path, capsys):
@@ -510,4 +517,4 @@ def test_a_command_added_by_the_recipe_runs_from_main(masses, disk_fit, tmp_path
 
 
 def test_the_toy_command_is_gone_after_its_test():
-    assert "masses" not in {c.name for c in cli._COMMANDS}
+    assert "masses" not in cli.COMMANDS
