@@ -15,6 +15,7 @@ from inertiafit.inference.fit import fit, fit_body
 from inertiafit.inference.model import Model
 from inertiafit.inference.sampler import SamplerSettings
 from inertiafit.io import load_study
+from inertiafit.measured import MEASURED_QUANTITIES, Measurement, measurements
 from inertiafit.mounting import Mounting
 from inertiafit.processing.study import process_study
 from inertiafit.simulate import PAPER_PRIORS, PAPER_TRUTH, Noise, simulate_study
@@ -361,6 +362,26 @@ def test_fit_body_takes_a_weighing_and_a_balance_point():
         fit_body(prior, mass=2.85, **NUMBERS)
     with pytest.raises(InputError, match=r"^com_distance_sd: needs the value com_distance too$"):
         fit_body(prior, com_distance_sd=0.01, **NUMBERS)
+
+
+def test_fit_body_takes_measurements_as_data_the_same_as_its_keyword_pairs():
+    # a Measurement (its quantity from the registry) is the pair of keywords, draw for draw
+    prior = "biodex-elbow-attachment"
+    mass = MEASURED_QUANTITIES["mass"]
+    as_data = fit_body(prior, seed=1, measured=[Measurement(mass, 2.85, 0.005)], **NUMBERS)
+    as_pair = fit_body(prior, seed=1, mass=2.85, mass_sd=0.005, **NUMBERS)
+    assert np.array_equal(as_data.draws(prior, "mass"), as_pair.draws(prior, "mass"))
+    assert measurements(mass=(2.85, 0.005), com_distance=(None, None)) == (
+        Measurement(mass, 2.85, 0.005),
+    )
+    with pytest.raises(InputError, match=r"^mass: given twice$"):
+        fit_body(
+            prior, measured=measurements(mass=(2.85, 0.005)), mass=2.8, mass_sd=0.01, **NUMBERS
+        )
+    with pytest.raises(InputError, match=r"^mass_sd: must be positive"):
+        fit_body(prior, measured=[Measurement(mass, 2.85, -1.0)], **NUMBERS)
+    with pytest.raises(InputError, match=r"^measured: unknown quantity 'volume'"):
+        measurements(volume=(1.0, 0.1))
 
 
 CLI = ["fit", "--prior", "biodex-elbow-attachment", "--inertia", "0.2052", "--inertia-se", "0.002"]

@@ -294,8 +294,13 @@ class _Fit(Command):
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
+        from inertiafit.measured import MEASURED_QUANTITIES, measurements
         from inertiafit.pipeline.fit import run_fit
 
+        # each direct measurement's option and its SD's (--mass, --mass-sd), read once here
+        measured = measurements(
+            **{q: (getattr(args, q), getattr(args, f"{q}_sd")) for q in MEASURED_QUANTITIES}
+        )
         run_fit(
             prior=args.prior,
             inertia=args.inertia,
@@ -308,10 +313,7 @@ class _Fit(Command):
             gravity_moment_n=args.gravity_moment_n,
             gravity=args.gravity,
             torque_gain_sd=args.torque_gain_sd,
-            mass=args.mass,
-            mass_sd=args.mass_sd,
-            com_distance=args.com_distance,
-            com_distance_sd=args.com_distance_sd,
+            measured=measured,
             formats=args.formats,
             out=args.out,
             seed=args.seed,

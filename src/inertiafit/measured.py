@@ -22,7 +22,13 @@ import numpy as np
 from inertiafit.errors import InputError
 from inertiafit.physics import UNITS
 
-__all__ = ["MEASURED_QUANTITIES", "MeasuredQuantity", "measured_quantity"]
+__all__ = [
+    "MEASURED_QUANTITIES",
+    "MeasuredQuantity",
+    "Measurement",
+    "measured_quantity",
+    "measurements",
+]
 
 
 @dataclass(frozen=True)
@@ -107,3 +113,52 @@ def measured_quantity(name: str, *, where: str) -> MeasuredQuantity:
             f"{where}: unknown quantity '{name}' (expected one of "
             f"{', '.join(MEASURED_QUANTITIES)})"
         ) from None
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One direct measurement of a body: what was measured, its reading and the reading's SD.
+
+    Built once where a measurement enters (a command line's options, :func:`measurements`)
+    and passed as it is to the model (:func:`inertiafit.inference.fit.fit_body`'s
+    ``measured``), which checks the SD.
+
+    Attributes
+    ----------
+    quantity : MeasuredQuantity
+        What was measured (an entry of :data:`MEASURED_QUANTITIES`).
+    value : float
+        The reading, in the quantity's SI unit (:attr:`MeasuredQuantity.unit`).
+    sd : float
+        Its SD, in the same unit.
+    """
+
+    quantity: MeasuredQuantity
+    value: float
+    sd: float
+
+    @property
+    def name(self) -> str:
+        """The quantity's name (``mass``, ``com_distance``)."""
+        return self.quantity.name
+
+
+def measurements(**given: tuple[float | None, float | None]) -> tuple[Measurement, ...]:
+    """Direct measurements given as numbers, ``name=(value, sd)`` by a quantity's name.
+
+    A pair of ``None`` is left out; a value without its SD (or an SD without its value) is an
+    :class:`InputError` naming ``name`` and ``name_sd`` (the keyword arguments of
+    :func:`~inertiafit.inference.fit.fit_body`, the options ``--name`` and ``--name-sd`` of
+    ``inertiafit fit``). The measurements come in the order given.
+    """
+    out = []
+    for name, (value, sd) in given.items():
+        quantity = measured_quantity(name, where="measured")
+        if value is None and sd is None:
+            continue
+        if sd is None:
+            raise InputError(f"{name}: needs its SD {name}_sd too")
+        if value is None:
+            raise InputError(f"{name}_sd: needs the value {name} too")
+        out.append(Measurement(quantity, value, sd))
+    return tuple(out)

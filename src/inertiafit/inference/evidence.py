@@ -26,7 +26,7 @@ from inertiafit.inference.model import Condition, Model, observable_ranges
 from inertiafit.inference.observations import Observation, check_resolvable
 from inertiafit.inference.population import population_prior_table
 from inertiafit.inference.priors import Prior, load_prior
-from inertiafit.measured import measured_quantity
+from inertiafit.measured import Measurement, measurements
 from inertiafit.stats import shared_error
 
 if TYPE_CHECKING:  # evidence reads these; importing them would load the processing stack
@@ -43,6 +43,7 @@ __all__ = [
     "evidence_from_numbers",
     "measured_evidence",
     "measured_from_numbers",
+    "measurement_observations",
     "shared_gravity_error",
     "study_model",
     "study_priors",
@@ -345,20 +346,29 @@ def measured_from_numbers(
 ) -> dict[str, Observation]:
     """Direct measurements given as numbers, ``name=(value, sd)``, as Gaussians by name.
 
-    A pair of ``None`` is left out; a value without its SD (or an SD without its value) is an
-    error naming ``name`` and ``name_sd`` (the arguments of
+    :func:`~inertiafit.measured.measurements` then :func:`measurement_observations`: a pair
+    of ``None`` is left out, a value without its SD (or an SD without its value) is an error
+    naming ``name`` and ``name_sd`` (the arguments of
     :func:`~inertiafit.inference.fit.fit_body`), and so is an SD below
     :data:`~inertiafit.inference.observations.MIN_RELATIVE_SE` of its value.
     """
-    out = {}
-    for name, (value, sd) in given.items():
-        measured_quantity(name, where="measured")
-        if value is None and sd is None:
-            continue
-        if sd is None:
-            raise InputError(f"{name}: needs its SD {name}_sd too")
-        if value is None:
-            raise InputError(f"{name}_sd: needs the value {name} too")
-        out[name] = Observation.from_mean_se(value, check_positive(sd, f"{name}_sd"), where=name)
-        check_resolvable(sd, out[name].center, f"{name}_sd")
+    return measurement_observations(measurements(**given))
+
+
+def measurement_observations(measured: Sequence[Measurement]) -> dict[str, Observation]:
+    """One body's direct measurements as Gaussians, by the quantity's name.
+
+    Each SD must be positive and no less than
+    :data:`~inertiafit.inference.observations.MIN_RELATIVE_SE` of its value; a message names
+    the quantity's ``name_sd`` (``mass_sd``). A quantity given twice is an error.
+    """
+    out: dict[str, Observation] = {}
+    for m in measured:
+        name = m.name
+        if name in out:
+            raise InputError(f"{name}: given twice")
+        out[name] = Observation.from_mean_se(
+            m.value, check_positive(m.sd, f"{name}_sd"), where=name
+        )
+        check_resolvable(m.sd, out[name].center, f"{name}_sd")
     return out

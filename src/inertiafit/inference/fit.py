@@ -18,11 +18,12 @@ import xarray as xr
 
 from inertiafit._checks import check_seed
 from inertiafit.errors import PriorDataConflictWarning
-from inertiafit.inference.evidence import evidence_from_numbers, measured_from_numbers
+from inertiafit.inference.evidence import evidence_from_numbers, measurement_observations
 from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.inference.sampler import SamplerSettings, sample
 from inertiafit.inference.terms import TERM_KINDS, Term
+from inertiafit.measured import Measurement, measurements
 from inertiafit.physics import GRAVITY, PARAMETERS, REPORTED, UNITS
 from inertiafit.posterior import Posterior, inputs_json
 
@@ -304,6 +305,7 @@ def fit_body(
     com_distance: float | None = None,
     com_distance_sd: float | None = None,
     terms: Sequence[Term] = (),
+    measured: Sequence[Measurement] = (),
 ) -> Posterior:
     """Posterior of one body from reported numbers.
 
@@ -327,11 +329,16 @@ def fit_body(
     mass, mass_sd : float, optional
         The body weighed on a scale (kg) and that reading's SD (kg; a reading rounded to a
         step ``q`` alone has the SD ``q / sqrt(12)``): a Gaussian term of the posterior.
+        The same as ``measured=measurements(mass=(mass, mass_sd))``.
     com_distance, com_distance_sd : float, optional
         A balance point: the centre of mass's distance from the joint axis (m) and its SD (m).
     terms : sequence of Term, optional
         Further evidence (:mod:`inertiafit.inference.terms`, any registered kind), on the
         body named after the prior.
+    measured : sequence of Measurement, optional
+        Direct measurements of the body (:class:`~inertiafit.measured.Measurement`, any
+        quantity of :data:`~inertiafit.measured.MEASURED_QUANTITIES`), each a Gaussian term;
+        with the keyword pairs above, each quantity once.
 
     Returns
     -------
@@ -347,9 +354,8 @@ def fit_body(
     """
     seed = check_seed(seed)
     prior = load_prior(prior)
-    measured = measured_from_numbers(
-        mass=(mass, mass_sd), com_distance=(com_distance, com_distance_sd)
-    )
+    given = measurements(mass=(mass, mass_sd), com_distance=(com_distance, com_distance_sd))
+    readings = measurement_observations((*measured, *given))
     obs_i = evidence_from_numbers("inertia", inertia, inertia_se, inertia_sd, inertia_n)
     obs_g = evidence_from_numbers(
         "gravity_moment", gravity_moment, gravity_moment_se, gravity_moment_sd, gravity_moment_n
@@ -359,7 +365,7 @@ def fit_body(
         [Condition((prior.name,), obs_i, obs_g)],
         gravity=gravity,
         torque_gain_sd=torque_gain_sd,
-        measured={prior.name: measured} if measured else None,
+        measured={prior.name: readings} if readings else None,
         terms=terms,
     )
     inputs = {
@@ -379,8 +385,8 @@ def fit_body(
         "gravity": gravity,
         "torque_gain_sd": torque_gain_sd,
     }
-    if measured:
-        inputs["measured"] = {k: [obs.center, obs.scale] for k, obs in measured.items()}
+    if readings:
+        inputs["measured"] = {k: [obs.center, obs.scale] for k, obs in readings.items()}
     post = fit(model, seed=seed, settings=settings, inputs=inputs)
     for line in post.conflict_warnings():
         warnings.warn(line, PriorDataConflictWarning, stacklevel=2)

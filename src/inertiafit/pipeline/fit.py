@@ -14,6 +14,7 @@ from inertiafit.errors import InputError, PriorDataConflictWarning
 from inertiafit.inference.fit import fit_body
 from inertiafit.inference.priors import Prior, load_prior
 from inertiafit.io.outputs import check_out, guard_outputs, output_folder
+from inertiafit.measured import Measurement
 from inertiafit.physics import GRAVITY
 from inertiafit.plotting.style import DEFAULT_FORMATS, check_formats
 from inertiafit.posterior import Posterior
@@ -99,12 +100,14 @@ def run_fit(
     com_distance: float | None = None,
     com_distance_sd: float | None = None,
     formats: tuple[str, ...] | list[str] = DEFAULT_FORMATS,
+    measured: Sequence[Measurement] = (),
 ) -> Posterior:
     """``inertiafit fit``: posterior of one body, written to ``out`` and printed.
 
     ``shown_as`` is the folder named in the closing line when ``out`` is a temporary folder
-    that will be renamed (the demo). ``mass``/``mass_sd`` (a weighing, kg) and
-    ``com_distance``/``com_distance_sd`` (a balance point, m) are passed to
+    that will be renamed (the demo). ``measured`` (direct measurements of the body,
+    :class:`~inertiafit.measured.Measurement`), or the pairs ``mass``/``mass_sd`` (a weighing,
+    kg) and ``com_distance``/``com_distance_sd`` (a balance point, m), are passed to
     :func:`~inertiafit.inference.fit.fit_body`. ``out`` is checked first
     (:func:`~inertiafit.io.outputs.check_out`). ``out`` receives the same set of outputs as
     ``inertiafit run`` (:func:`~inertiafit.report.outputs.write_outputs`: tables, figures in
@@ -136,6 +139,7 @@ def run_fit(
             mass_sd=mass_sd,
             com_distance=com_distance,
             com_distance_sd=com_distance_sd,
+            measured=measured,
         )
         result = fit_result(
             post,
