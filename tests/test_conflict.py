@@ -170,8 +170,8 @@ def heavy():
 def test_a_body_twice_as_heavy_as_its_de_leva_prior_is_said(heavy):
     post, said = heavy
     assert len(said) == 2
-    assert said[0].startswith("prior-data conflict: forearm I: the data give 0.15 +- 0.0018")
-    assert said[1].startswith("prior-data conflict: forearm M_g: the data give 5.74 +- 0.03")
+    assert said[0].startswith("prior-data conflict: forearm I: the data give 0.15 ± 0.0018")
+    assert said[1].startswith("prior-data conflict: forearm M_g: the data give 5.74 ± 0.03")
     assert all("\n" not in line and "above what its prior allows" in line for line in said)
     table = post.prior_predictive().set_index("quantity")
     # M_g's tail against the lognormal product's quadrature (4e7 plain draws: 5.89e-5 +- 0.12e-5);

@@ -102,7 +102,7 @@ def test_a_sweep_that_does_not_determine_m_g_is_refused_naming_it(base, tmp_path
     assert table.loc[FASTS, "cause"].isna().all()
     # the terminal shows the same rows
     row = next(x for x in err.splitlines() if x.startswith(QS))
-    assert re.search(r"184\.6 \+- 703 +refused +angle: a quasi-static sweep", row), row
+    assert re.search(r"184\.6 ± 703 +refused +angle: a quasi-static sweep", row), row
 
 
 def test_a_sweep_of_thirty_degrees_is_not_refused(base, tmp_path):  # noqa: F811
@@ -487,7 +487,7 @@ def test_the_library_error_carries_the_table(base, tmp_path):  # noqa: F811
         "note",
     ]  # fmt: skip
     assert re.match(
-        r"data/A_240_01\.csv +attachment +fast +240 +6\.0\d* \+- 0\.\d+ +refused +I = 6\.03",
+        r"data/A_240_01\.csv +attachment +fast +240 +6\.0\d* ± 0\.\d+ +refused +I = 6\.03",
         lines[2],
     )
 

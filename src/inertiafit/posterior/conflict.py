@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from inertiafit.formatting import mean_sd, tail_probability
 from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.physics import PARAMETERS, UNITS
 
@@ -142,16 +143,13 @@ class Check:
         side = "above" if self.lower_tail > 0.5 else "below"
         what = "the data give" if self.source == "data" else f"its {self.source} gives"
         return (
-            f"prior-data conflict: {self.body} {symbol}: {what} {self.estimate:.4g} +- "
-            f"{self.se:.2g} {unit}, {side} what its prior allows (95 % of the prior within "
+            f"prior-data conflict: {self.body} {symbol}: {what} "
+            f"{mean_sd(self.estimate, self.se)} {unit}, {side} what its prior allows (95 % of "
+            "the prior within "
             f"{self.prior_low:.4g}-{self.prior_high:.4g}; prior-predictive tail probability "
-            f"{_p_text(self.p)} < {CONFLICT_TAIL:g}); m, x and rho then rest on a prior the "
+            f"{tail_probability(self.p)} < {CONFLICT_TAIL:g}); m, x and rho then rest on a prior the "
             "data contradict: check the prior (body mass, segment, units) and the data"
         )
-
-
-def _p_text(p: float) -> str:
-    return "< 1e-6" if p < 1e-6 else f"{p:.2g}"
 
 
 # -- the prior pushed through the physics ---------------------------------------------------

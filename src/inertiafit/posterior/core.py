@@ -36,6 +36,7 @@ import xarray as xr
 
 from inertiafit._checks import check_path, check_probability
 from inertiafit.errors import InputError
+from inertiafit.formatting import mean_sd
 from inertiafit.io.outputs import write_csv
 from inertiafit.physics import PARAMETERS, REPORTED, SYMBOLS
 from inertiafit.posterior import conflict, display, pins
@@ -144,7 +145,7 @@ class Posterior:
         gain = np.asarray(self.tree["posterior"]["torque_gain"].values)
         return (
             f"Calibration uncertainty is included: torque gain relative SD {100 * sd:.3g} % "
-            f"(prior), posterior {gain.mean():.4f} +- {gain.std():.2g}; it scales every I and "
+            f"(prior), posterior {mean_sd(gain.mean(), gain.std())}; it scales every I and "
             "M_g together and is carried in every interval."
         )
 

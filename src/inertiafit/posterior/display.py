@@ -13,7 +13,15 @@ import math
 from collections import Counter
 from typing import TYPE_CHECKING, Any, Protocol
 
-from inertiafit.formatting import interval, plural
+from inertiafit.formatting import (
+    correlation,
+    ess,
+    interval,
+    plural,
+    r_hat,
+    share,
+    tail_probability,
+)
 from inertiafit.physics import UNITS
 from inertiafit.posterior import pins
 
@@ -69,7 +77,6 @@ __all__ = [
     "correlation_text",
     "html_table",
     "predictive_text",
-    "share_text",
     "table_rows",
     "text_report",
     "trial_counts",
@@ -109,13 +116,6 @@ def table_rows(post: PosteriorView, hdi_prob: float) -> list[dict[str, Any]]:
     ]
 
 
-def share_text(value: float) -> str:
-    """A prior share with two decimals; blank when it could not be estimated."""
-    if not math.isfinite(value):
-        return ""
-    return f"{0.0 if abs(value) < 0.005 else value:.2f}"
-
-
 def predictive_text(post: PosteriorView) -> str:
     """One line: each measured quantity's prior-predictive tail probability, conflicts marked.
 
@@ -129,7 +129,7 @@ def predictive_text(post: PosteriorView) -> str:
     parts: dict[str, list[str]] = {}
     for r in table.itertuples(index=False):
         mark = " (conflict)" if r.conflict else ""
-        p = "< 1e-6" if r.tail_probability < 1e-6 else f"{r.tail_probability:.2g}"
+        p = tail_probability(r.tail_probability)
         parts.setdefault(str(r.body), []).append(f"{pins.SHORT[str(r.quantity)]} {p}{mark}")
     return (
         "Prior-data check (two-sided prior-predictive tail probability of what the data "
@@ -141,8 +141,8 @@ def predictive_text(post: PosteriorView) -> str:
 def correlation_text(post: PosteriorView) -> list[str]:
     """One line per body: the posterior correlations of m, x and rho."""
     return [
-        f"{r.body}: posterior correlations m-x {r.corr_m_x:+.2f}, m-rho {r.corr_m_rho:+.2f}, "
-        f"x-rho {r.corr_x_rho:+.2f}"
+        f"{r.body}: posterior correlations m-x {correlation(r.corr_m_x)}, "
+        f"m-rho {correlation(r.corr_m_rho)}, x-rho {correlation(r.corr_x_rho)}"
         for r in post.correlations().itertuples(index=False)
     ]
 
@@ -200,9 +200,8 @@ def text_report(post: PosteriorView, hdi_prob: float = 0.95) -> str:
         hdi = interval(r["hdi_lower"], r["hdi_upper"])
         lines.append(
             f"{r['body']:<{width}}{name:<28}{r['median']:>10.4g}  {hdi:<24}{r['sd']:>10.3g}  "
-            f"{r['r_hat']:>6.3f} {r['ess_bulk']:>6.0f} {share_text(r['prior_share']):>11}  "
-            f"{r['identified_by']} "
-            f"({r['sd_ratio']:.2f})"
+            f"{r_hat(r['r_hat']):>6} {ess(r['ess_bulk']):>6} {share(r['prior_share']):>11}  "
+            f"{r['identified_by']} ({share(r['sd_ratio'])})"
         )
     ident = post.identification()
     for body in post.bodies:
@@ -251,10 +250,10 @@ def html_table(post: PosteriorView, hdi_prob: float = 0.95) -> str:
                 f"{r['median']:.4g}",
                 interval(r["hdi_lower"], r["hdi_upper"]),
                 f"{r['sd']:.3g}",
-                f"{r['r_hat']:.3f}",
-                f"{r['ess_bulk']:.0f}",
-                share_text(r["prior_share"]),
-                f"{r['identified_by']} ({r['sd_ratio']:.2f})",
+                r_hat(r["r_hat"]),
+                ess(r["ess_bulk"]),
+                share(r["prior_share"]),
+                f"{r['identified_by']} ({share(r['sd_ratio'])})",
             )
         )
         + "</tr>"

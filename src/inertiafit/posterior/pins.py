@@ -79,6 +79,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from inertiafit.formatting import share
 from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.physics import PARAMETERS
 
@@ -553,8 +554,8 @@ def _join(names: Sequence[str]) -> str:
 
 
 def _share_range(shares: Sequence[float]) -> str:
-    lo, hi = min(shares), max(shares)
-    return f"{lo:.2f}" if f"{lo:.2f}" == f"{hi:.2f}" else f"{lo:.2f}-{hi:.2f}"
+    lo, hi = share(min(shares)), share(max(shares))
+    return lo if lo == hi else f"{lo}-{hi}"
 
 
 _PRIORS = {

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from inertiafit.formatting import plural
+from inertiafit.formatting import ess, interval, mean_sd, plural, r_hat
 from inertiafit.inference.priors import Prior
 from inertiafit.inference.terms import TERM_KINDS
 from inertiafit.physics import PARAMETERS, UNITS
@@ -99,7 +99,7 @@ def prior_table(prior: Prior) -> pd.DataFrame:
                 "parameter": f"{_NAMES[p]} [{u}]",
                 "distribution": kind,
                 "parameters": what,
-                "bounds": f"[{prior.lower[p]:.4g}, {prior.upper[p]:.4g}]",
+                "bounds": interval(prior.lower[p], prior.upper[p]),
             }
         )
     return pd.DataFrame(rows)
@@ -443,7 +443,7 @@ class _PassivePrior:
             return ""
         row = self.table.loc[key]
         space = "" if unit in ("", "°") else " "
-        return f"{float(row['mean']):.3g} ± {float(row['sd']):.2g}{space}{unit}"
+        return f"{mean_sd(float(row['mean']), float(row['sd']), 3)}{space}{unit}"
 
 
 def _living_fit(result: Result) -> Any:
@@ -634,7 +634,7 @@ def living_text(result: Result) -> list[str]:
             else ""
         )
         paras.append(
-            f"M_g of '{cond}' = {float(row['mean']):.4g} ± {float(row['sd']):.2g} N m from the "
+            f"M_g of '{cond}' = {mean_sd(float(row['mean']), float(row['sd']))} N m from the "
             f"joint fit, told from the passive curve by {row['pinned_by'] or 'the prior'}"
             f"{grows}."
         )
@@ -692,8 +692,8 @@ def _sampler(result: Result) -> list[str]:
     )
     tau = float(a.get("tau_max", math.nan))
     reached = (
-        f"Reached: largest R-hat {summary['r_hat'].max():.3f}, smallest bulk ESS "
-        f"{summary['ess_bulk'].min():.0f} and tail ESS {summary['ess_tail'].min():.0f}, "
+        f"Reached: largest R-hat {r_hat(summary['r_hat'].max())}, smallest bulk ESS "
+        f"{ess(summary['ess_bulk'].min())} and tail ESS {ess(summary['ess_tail'].min())}, "
         f"autocorrelation time at most {tau:.2f} steps, acceptance "
         f"{float(a.get('acceptance', math.nan)):.2f}; "
         + (

@@ -19,7 +19,7 @@ import pandas as pd
 
 from inertiafit import __version__
 from inertiafit.errors import InputError
-from inertiafit.formatting import interval, number, plural
+from inertiafit.formatting import ess, interval, number, plural, r_hat
 from inertiafit.inference.anthropometric import segment_values
 from inertiafit.inference.population import (
     LOG_COVARIATES,
@@ -312,10 +312,10 @@ def _body_items(pop, body, anchor, summary, subjects, hdi_prob, figures):
     table = summary[summary["body"] == body]
     bias, versus, notes = _tables(pop, body, hdi_prob)
     prior = [f"{r.parameter} {r.term}" for r in table.itertuples() if r.decided_by == "prior"]
-    ess = ", ".join(f"{n} {e:.0f}" for n, e in zip(fit.subjects, fit.ess, strict=True))
+    each = ", ".join(f"{n} {ess(e)}" for n, e in zip(fit.subjects, fit.ess, strict=True))
     line = (
         f"{body}: {plural(len(fit.subjects), 'subject')}; importance-weight ESS of "
-        f"{fit.n_draws} draws each: {ess}. Decided by the hyperprior, not the subjects: "
+        f"{fit.n_draws} draws each: {each}. Decided by the hyperprior, not the subjects: "
         f"{', '.join(prior) or 'nothing'}."
     )
     diag = pd.DataFrame({"subject": fit.subjects, "importance ESS": fit.ess.round()})
@@ -331,8 +331,8 @@ def _body_items(pop, body, anchor, summary, subjects, hdi_prob, figures):
     )
     columns = ["parameter", "term", "median", "HDI", "unit", "decided_by", "ess_bulk", "r_hat"]
     hdi = _intervals(table, "hdi_lower", "hdi_upper")
-    r_hat = [number(v, 3) for v in table["r_hat"]]
-    shown = _shown(table, columns, HDI=hdi, ess_bulk=table["ess_bulk"].round(), r_hat=r_hat)
+    rhats = [r_hat(v) for v in table["r_hat"]]
+    shown = _shown(table, columns, HDI=hdi, ess_bulk=table["ess_bulk"].round(), r_hat=rhats)
     cols = ("bias_median_percent", "bias_lower_percent", "bias_upper_percent")
     percent = [_pct(*v) for v in zip(*(bias[c] for c in cols), strict=True)]
     names = [_TABLE_NAMES[t] for t in bias["table"]]

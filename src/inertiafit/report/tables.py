@@ -12,7 +12,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from inertiafit.formatting import interval, mean_sd, number
+from inertiafit.formatting import (
+    correlation,
+    interval,
+    mean_sd,
+    number,
+    r_hat,
+    share,
+    tail_probability,
+)
 from inertiafit.io.outputs import write_csv
 from inertiafit.physics import UNITS
 
@@ -153,7 +161,7 @@ def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
             "mean ± sd": [
                 mean_sd(m, s) for m, s in zip(summary["mean"], summary["sd"], strict=True)
             ],
-            "R-hat": ["" if math.isnan(v) else f"{v:.3f}" for v in summary["r_hat"]],
+            "R-hat": [r_hat(v) for v in summary["r_hat"]],
             "ESS bulk": summary["ess_bulk"]
             .round(0)
             .astype(
@@ -161,13 +169,6 @@ def summary_display(summary: pd.DataFrame) -> pd.DataFrame:
             ),
         }
     )
-
-
-def _two(value: float) -> str:
-    """Two decimals (no ``-0.00``); blank for NaN."""
-    if math.isnan(value):
-        return ""
-    return f"{0.0 if abs(value) < 0.005 else value:.2f}"
 
 
 def identification_display(identification: pd.DataFrame) -> pd.DataFrame:
@@ -186,11 +187,11 @@ def identification_display(identification: pd.DataFrame) -> pd.DataFrame:
         {
             "body": frame["body"],
             "parameter": [f"{p} [{UNITS[p]}]" for p in frame["parameter"]],
-            "post/prior SD": [_two(v) for v in frame["sd_ratio"]],
-            "prior share": [_two(v) for v in col("prior_share")],
-            "calibration share": [_two(v) for v in col("calibration_share")],
-            "psense prior": [_two(v) for v in col("psense_prior")],
-            "psense likelihood": [_two(v) for v in col("psense_likelihood")],
+            "post/prior SD": [share(v) for v in frame["sd_ratio"]],
+            "prior share": [share(v) for v in col("prior_share")],
+            "calibration share": [share(v) for v in col("calibration_share")],
+            "psense prior": [share(v) for v in col("psense_prior")],
+            "psense likelihood": [share(v) for v in col("psense_likelihood")],
             "pinned by": col("pinned_by").fillna("").astype(str).to_numpy(),
             "prior-predictive p": [
                 _tail(v, c)
@@ -208,7 +209,7 @@ def _tail(p: float, conflict: bool) -> str:
     """A prior-predictive tail probability, two significant figures; ``conflict`` marked."""
     if not math.isfinite(p):
         return ""
-    text = "< 1e-6" if p < 1e-6 else f"{p:.2g}"
+    text = tail_probability(p)
     return f"{text} (prior-data conflict)" if conflict else text
 
 
@@ -217,9 +218,9 @@ def correlation_display(correlations: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(
         {
             "body": correlations["body"],
-            "corr(m, x)": [f"{v:+.2f}" for v in correlations["corr_m_x"]],
-            "corr(m, rho)": [f"{v:+.2f}" for v in correlations["corr_m_rho"]],
-            "corr(x, rho)": [f"{v:+.2f}" for v in correlations["corr_x_rho"]],
+            "corr(m, x)": [correlation(v) for v in correlations["corr_m_x"]],
+            "corr(m, rho)": [correlation(v) for v in correlations["corr_m_rho"]],
+            "corr(x, rho)": [correlation(v) for v in correlations["corr_x_rho"]],
         }
     )
 
@@ -251,7 +252,7 @@ def comparison_display(comparison: pd.DataFrame, hdi_prob: float = 0.95) -> pd.D
             "posterior vs ideal": [pct(v) for v in comparison["posterior_vs_ideal"]],
             "baseline vs ideal": [pct(v) for v in comparison["baseline_vs_ideal"]],
             "identified by (post/prior SD)": [
-                f"{who} ({r:.2f})"
+                f"{who} ({share(r)})"
                 for who, r in zip(comparison["identified_by"], comparison["sd_ratio"], strict=True)
             ],
         }
@@ -281,7 +282,7 @@ def _pm(value: float, se: float, digits: int = 4) -> str:
         return ""
     if math.isnan(se):
         return f"{value:.{digits}g}"
-    return f"{value:.{digits}g} ± {se:.2g}"
+    return mean_sd(value, se, digits)
 
 
 def _get(row: pd.Series, column: str) -> float:

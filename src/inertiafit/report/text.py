@@ -6,7 +6,7 @@ import math
 
 import pandas as pd
 
-from inertiafit.formatting import interval, number
+from inertiafit.formatting import interval, mean_sd, number
 from inertiafit.report.result import Result
 
 __all__ = [
@@ -81,7 +81,7 @@ def diagnostics_text(table: pd.DataFrame) -> str:
         if not isinstance(v, int | float) or math.isnan(v):
             return ""
         if isinstance(se, int | float) and math.isfinite(se):
-            return f"{v:.4g} +- {se:.2g}" if abs(se) < 100 else f"{v:.4g} +- {se:.0f}"
+            return mean_sd(v, se)
         return f"{v:.4g}"
 
     header = ["file", "condition", "kind", "speed", "I (kg m^2)", "M_g (N m)", "status", "note"]
