@@ -125,7 +125,7 @@ def test_every_bad_value_is_one_line(study_dir, tmp_path, head, extra, expected)
     assert "\n" not in str(err.value)
 
 
-def test_the_subject_is_recorded_in_the_posterior(study_dir, tmp_path):
+def test_the_subject_is_recorded_in_the_posterior(study_dir, tmp_path, no_figures):
     manifest = _with(study_dir, tmp_path, SUBJECT, "segment_length = 0.28\n")
     out = tmp_path / "out"
     assert main(["run", str(manifest), "--out", str(out)]) == 0
