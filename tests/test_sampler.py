@@ -146,7 +146,7 @@ def test_identifiability_attachment_is_shared_between_data_and_prior():
 def test_a_convergence_check_stops_at_the_first_failing_quantity_and_decides_as_the_full_one():
     from arviz_stats.base import array_stats
 
-    from inertiafit.inference.sampler import _checks
+    from inertiafit.inference.sampler import convergence_check
 
     rng = np.random.default_rng(8)
     good = rng.standard_normal((16, 400, 2))  # (walkers, draws, bodies): mixed, independent
@@ -161,14 +161,16 @@ def test_a_convergence_check_stops_at_the_first_failing_quantity_and_decides_as_
     assert rhat[2] > 1.5
     assert rhat[[0, 1, 4]].max() < 1.01
     # from quantity 0: the first that fails is the inertia of body 0 (row 2), with its numbers
-    assert _checks(params, 1000.0, 1.01) == pytest.approx((ess[2], rhat[2], 2))
+    assert convergence_check(params, 1000.0, 1.01) == pytest.approx((ess[2], rhat[2], 2))
     # started from the last culprit, it is the first looked at
-    assert _checks(params, 1000.0, 1.01, first=3)[2] == 3
+    assert convergence_check(params, 1000.0, 1.01, first=3)[2] == 3
     # all pass (no bounds): the minimum and maximum over every quantity, as one full pass gives
-    low, high, culprit = _checks(params, -np.inf, np.inf)
+    low, high, culprit = convergence_check(params, -np.inf, np.inf)
     assert culprit is None
     assert (low, high) == pytest.approx((ess.min(), rhat.max()))
     # not early (the last check, for the record): every quantity, and still the culprit
-    assert _checks(params, 1000.0, 1.01, early=False) == pytest.approx((ess.min(), rhat.max(), 2))
+    assert convergence_check(params, 1000.0, 1.01, early=False) == pytest.approx(
+        (ess.min(), rhat.max(), 2)
+    )
     # negative control: without the stuck walkers nothing fails
-    assert _checks({"mass": good}, 1000.0, 1.01)[2] is None
+    assert convergence_check({"mass": good}, 1000.0, 1.01)[2] is None

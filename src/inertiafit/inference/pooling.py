@@ -457,10 +457,10 @@ def fit_population(
     most :data:`R_HAT_MAX`.
     """
     import emcee
-    from arviz_stats import ess, rhat
     from scipy import optimize
 
     from inertiafit.inference.moves import IndependenceMove, emcee_moves, run_steps
+    from inertiafit.inference.sampler import convergence_check
 
     seed = check_seed(seed)
     hyper = hyperprior or Hyperprior()
@@ -560,21 +560,23 @@ def fit_population(
             independence[0].refit(recent.mean(axis=0), spread)
         state = run_steps(sampler, state, chunk)
     warm = sampler.iteration
-    steps = 0
+    steps, failing = 0, 0
     while True:
         state = run_steps(sampler, state, chunk)
         steps += chunk
         chain = sampler.get_chain()[warm:].swapaxes(0, 1)  # (walker, step, D)
-        bulk = np.array([float(ess(chain[..., d], method="bulk")) for d in range(design.ndim)])
-        r = np.array([float(rhat(chain[..., d])) for d in range(design.ndim)])
-        if (bulk.min() >= ess_target and r.max() <= R_HAT_MAX) or steps >= max_steps:
+        # each coordinate's ESS and R-hat until one fails (last time's culprit first); at
+        # max_steps every one, for the record
+        bulk, r, culprit = convergence_check(
+            {"z": chain}, ess_target, R_HAT_MAX, failing, early=steps < max_steps
+        )
+        failing = culprit if culprit is not None else failing
+        if culprit is None or steps >= max_steps:
             break
-    if bulk.min() < ess_target or r.max() > R_HAT_MAX:
-        import warnings
-
+    if culprit is not None:
         warnings.warn(
             f"population: the hyperparameters did not converge in {steps} steps (bulk ESS "
-            f"{bulk.min():.0f}, R-hat {r.max():.3f}); the intervals are rough",
+            f"{bulk:.0f}, R-hat {r:.3f}); the intervals are rough",
             ConvergenceWarning,
             stacklevel=2,
         )
@@ -603,8 +605,8 @@ def fit_population(
             "warm_up": warm,
             "n_walkers": n_walkers,
             "acceptance": float(np.mean(sampler.acceptance_fraction)),
-            "ess_bulk_min": float(bulk.min()),
-            "r_hat_max": float(r.max()),
+            "ess_bulk_min": bulk,
+            "r_hat_max": r,
             "loglike_variance": float(np.var(noise)),
             "mode": model.to_model(design, mode[None])[0][0].tolist(),
         },

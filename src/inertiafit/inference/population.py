@@ -418,16 +418,21 @@ def log_likelihood(
 #: is made of (fewer draws, fewer cells).
 CELLS = 32
 CELL_DRAWS = 16
+#: Cells (walkers x subjects x cells) the density handles at once (:meth:`Cells.log_likelihood`).
+BLOCK = 16_000
 
 
-def _inverse_3x3(a: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """Cofactors ``(c00, c01, c02, c11, c12, c22)`` and determinants of symmetric 3x3 ``a``.
+#: The upper triangle of a symmetric 3x3 matrix, in the order its six components are kept.
+_UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
-    The inverse is the cofactors over the determinant; written out, since ``np.linalg.inv``
-    of many tiny matrices costs more than the arithmetic.
+
+def _cofactors(a00, a01, a02, a11, a12, a22) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """Cofactors ``(c00, c01, c02, c11, c12, c22)`` and determinants of symmetric 3x3 matrices.
+
+    The components are given as arrays of one shape; the inverse is the cofactors over the
+    determinant, written out, since ``np.linalg.inv`` of many tiny matrices costs more than
+    the arithmetic.
     """
-    a00, a01, a02 = a[..., 0, 0], a[..., 0, 1], a[..., 0, 2]
-    a11, a12, a22 = a[..., 1, 1], a[..., 1, 2], a[..., 2, 2]
     c00 = a11 * a22 - a12 * a12
     c01 = a02 * a12 - a01 * a22
     c02 = a01 * a12 - a02 * a11
@@ -478,6 +483,10 @@ class Cells:
         self.means = np.array(means).reshape(n, k, 3)
         self.covs = np.array(covs).reshape(n, k, 3, 3)
         self.consts = np.array(consts).reshape(n, k)
+        # Each component its own contiguous (N, k) array: the density adds a walker's
+        # scatter to every cell (see log_likelihood for what that saves).
+        self._cov = [np.ascontiguousarray(self.covs[..., i, j]) for i, j in _UPPER]
+        self._mean = [np.ascontiguousarray(self.means[..., i]) for i in range(3)]
 
     def log_weights(self, design: Design, matrices, z: np.ndarray) -> np.ndarray:
         """Each cell's log mean weight ``(W, N, k)`` under each walker's population."""
@@ -486,18 +495,38 @@ class Cells:
         chol = np.exp(log_sigma)[:, :, None] * correlation_cholesky(np.tanh(t))
         sigma = chol @ np.swapaxes(chol, 1, 2)  # (W, 3, 3)
         mu = population_means(design, matrices, z)  # (W, N, 3)
-        (c00, c01, c02, c11, c12, c22), det = _inverse_3x3(sigma[:, None, None] + self.covs)
-        d = self.means - mu[:, :, None, :]  # (W, N, k, 3)
-        d0, d1, d2 = d[..., 0], d[..., 1], d[..., 2]
-        quad = c00 * d0 * d0 + c11 * d1 * d1 + c22 * d2 * d2
+        a = [c + sigma[:, i, j, None, None] for c, (i, j) in zip(self._cov, _UPPER, strict=True)]
+        (c00, c01, c02, c11, c12, c22), det = _cofactors(*a)
+        d0, d1, d2 = (m - mu[:, :, i, None] for i, m in enumerate(self._mean))  # (W, N, k)
+        quad = c00 * d0 * d0
+        quad += c11 * d1 * d1
+        quad += c22 * d2 * d2
         quad += 2.0 * (c01 * d0 * d1 + c02 * d0 * d2 + c12 * d1 * d2)
-        return self.consts - 0.5 * (quad / det + np.log(det) + 3 * _LOG_2PI)
+        quad /= det
+        quad += np.log(det)
+        quad += 3 * _LOG_2PI
+        quad *= -0.5
+        quad += self.consts
+        return quad
 
     def log_likelihood(self, design: Design, matrices, z: np.ndarray) -> np.ndarray:
-        """The population's log likelihood ``(W,)``: sum over subjects of log mean weight."""
-        lw = self.log_weights(design, matrices, z)
-        top = lw.max(axis=-1, keepdims=True)
-        return (np.log(np.exp(lw - top).sum(axis=-1)) + top[..., 0]).sum(axis=-1)
+        """The population's log likelihood ``(W,)``: sum over subjects of log mean weight.
+
+        Walkers in blocks of about :data:`BLOCK` cells in all, so that the dozen arrays of
+        that size the density makes stay in a core's cache: for 100 subjects and 32 walkers,
+        one block took 11-12 ms, blocks of 5 walkers 2.6 ms (the 3x3 components strided out
+        of one array, as before, 5.5 ms).
+        """
+        z = np.atleast_2d(z)
+        step = max(1, BLOCK // self.means.shape[0] // self.k)
+        out = np.empty(len(z))
+        for i in range(0, len(z), step):
+            lw = self.log_weights(design, matrices, z[i : i + step])
+            top = lw.max(axis=-1, keepdims=True)
+            lw -= top
+            np.exp(lw, out=lw)
+            out[i : i + step] = (np.log(lw.sum(axis=-1)) + top[..., 0]).sum(axis=-1)
+        return out
 
 
 def box_mass(

@@ -43,7 +43,14 @@ from inertiafit.inference.moves import (
 )
 from inertiafit.inference.star import Star, star_structure
 
-__all__ = ["SAMPLERS", "SamplerRun", "SamplerSettings", "resolve_moves", "sample"]
+__all__ = [
+    "SAMPLERS",
+    "SamplerRun",
+    "SamplerSettings",
+    "convergence_check",
+    "resolve_moves",
+    "sample",
+]
 
 #: Names :attr:`SamplerSettings.moves` accepts.
 SAMPLERS = ("auto", "blocked", *MOVES)
@@ -168,7 +175,7 @@ def _progress(enabled: bool, steps: int, max_steps: int, tau: float, ess: float,
         sys.stderr.flush()
 
 
-def _checks(
+def convergence_check(
     params: dict[str, np.ndarray],
     ess_min: float,
     r_hat_max: float,
@@ -448,7 +455,7 @@ def sample(model: Model, *, seed: int = 0, settings: SamplerSettings | None = No
         params = model.parameters(kept, np.random.default_rng([seed, 1]))
         # the last check (at max_steps) looks at every quantity, for the record
         last = chains.n_steps >= s.max_steps
-        ess_min, rhat_max, culprit = _checks(
+        ess_min, rhat_max, culprit = convergence_check(
             params, s.ess_min, s.r_hat_max, failing, early=not last
         )
         failing = culprit if culprit is not None else failing
