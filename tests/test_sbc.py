@@ -195,3 +195,18 @@ def test_negative_control_a_wrong_likelihood_scale_fails_the_same_test(evidence,
     # 7e-5: benchmarks/sbc.py runs it (K = 3, trial values, 100 studies).
     result = run_sbc(attachment_design(0, evidence), n, seed=SEED, scale=scale)
     assert not calibrated(calibration_table(result), ALPHA)
+
+
+def test_a_simulated_measurement_reads_the_registry_and_bad_ones_are_one_line():
+    # the reading is the quantity's value of the truth (its registry entry), with its noise
+    design = replace(attachment_design(0, "mean_se"), measured={"attachment": {"com_distance": 1e-9}})
+    sim = draw_truth_and_data(design, np.random.default_rng(3))
+    (obs,) = sim.measured["attachment"].values()
+    assert obs.center == pytest.approx(sim.truth["attachment"]["com_distance"], abs=1e-8)
+    for measured, message in (
+        ({"attachment": {"girth": 0.01}}, r"measured: attachment: unknown quantity 'girth'"),
+        ({"attachment": {"mass": -0.1}}, r"measured: attachment\.mass"),
+    ):
+        with pytest.raises(InputError, match=message) as err:
+            replace(attachment_design(0, "mean_se"), measured=measured)
+        assert "\n" not in str(err.value)

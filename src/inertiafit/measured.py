@@ -10,7 +10,8 @@ parameters. :data:`MEASURED_QUANTITIES` is the registry: the
 manifest, the model's likelihood terms (:mod:`inertiafit.inference.terms`), the DataTree
 writer, the posterior's display, the simulator and the validation harnesses look a quantity
 up here instead of comparing its name. A new direct measurement is one entry here (and its
-likelihood follows from :meth:`MeasuredQuantity.value` and :meth:`MeasuredQuantity.masses`).
+likelihood follows from :meth:`MeasuredQuantity.value` and :meth:`MeasuredQuantity.masses`;
+the planner reads its SDs from the :class:`~inertiafit.planning.Design` field it names).
 """
 
 from __future__ import annotations
@@ -51,6 +52,11 @@ class MeasuredQuantity:
         have it, in model order).
     increasing : bool
         Whether the value read grows with the body's mass at a fixed first moment ``a``.
+    plan_key : str
+        Its key in a plan file's design (``weigh = { body = sd }``).
+    design_field : str
+        The :class:`inertiafit.planning.Design` field holding each measured body's SD
+        (``weighed``).
     """
 
     name: str
@@ -58,6 +64,8 @@ class MeasuredQuantity:
     label: str
     body_dim: str
     increasing: bool
+    plan_key: str
+    design_field: str
 
     @property
     def unit(self) -> str:
@@ -98,8 +106,24 @@ class MeasuredQuantity:
 MEASURED_QUANTITIES: dict[str, MeasuredQuantity] = {
     q.name: q
     for q in (
-        MeasuredQuantity("mass", "mass", "weighed mass", "mass_body", increasing=True),
-        MeasuredQuantity("com_distance", "length", "balance point", "com_body", increasing=False),
+        MeasuredQuantity(
+            "mass",
+            "mass",
+            "weighed mass",
+            "mass_body",
+            increasing=True,
+            plan_key="weigh",
+            design_field="weighed",
+        ),
+        MeasuredQuantity(
+            "com_distance",
+            "length",
+            "balance point",
+            "com_body",
+            increasing=False,
+            plan_key="balance",
+            design_field="balanced",
+        ),
     )
 }
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from inertiafit._checks import check_number, check_positive
 from inertiafit.errors import InputError
+from inertiafit.measured import MEASURED_QUANTITIES, MeasuredQuantity
 from inertiafit.mounting import Mounting
 from inertiafit.physics import PARAMETERS
 
@@ -130,12 +131,9 @@ class Design:
             raise InputError(f"{where}: speeds: expected at least one speed")
         for s in self.speeds:
             check_positive(s, f"{where}: speeds", "deg/s")
-        for key, table, unit in (
-            ("weighed", self.weighed, "kg"),
-            ("balanced", self.balanced, "m"),
-        ):
+        for q, table in self._measured_tables():
             for body, sd in table.items():
-                check_positive(sd, f"{where}: {key}.{body}", unit)
+                check_positive(sd, f"{where}: {q.design_field}.{body}", q.unit)
 
     def _check_living(self, where: str) -> None:
         body = self.living
@@ -152,7 +150,7 @@ class Design:
             raise InputError(f"{where}: living body '{body}' is in no condition")
         if self.passive is None:
             raise InputError(f"{where}: living body '{body}' needs the [passive] table")
-        if body in self.weighed or body in self.balanced:
+        if any(body in table for _, table in self._measured_tables()):
             raise InputError(
                 f"{where}: '{body}' is living: it cannot be weighed or balanced apart from the "
                 "subject"
@@ -196,23 +194,28 @@ class Design:
                 total += per + len(self.rotation_postures)
         return total
 
+    def _measured_tables(self) -> list[tuple[MeasuredQuantity, Mapping[str, float]]]:
+        """Each registered quantity with its table of body -> SD (its ``design_field``)."""
+        return [(q, getattr(self, q.design_field)) for q in MEASURED_QUANTITIES.values()]
+
     @property
     def measured(self) -> dict[str, dict[str, float]]:
-        """Body -> {measured quantity: SD} of the bodies weighed or balanced.
+        """Body -> {measured quantity: SD} of the bodies measured directly.
 
-        ``weighed`` is ``mass``, ``balanced`` is ``com_distance`` (the names of
-        :data:`inertiafit.measured.MEASURED_QUANTITIES`).
+        Each quantity of :data:`inertiafit.measured.MEASURED_QUANTITIES` by its name, read
+        from its :attr:`~inertiafit.measured.MeasuredQuantity.design_field` (``weighed`` is
+        ``mass``, ``balanced`` is ``com_distance``).
         """
         out: dict[str, dict[str, float]] = {}
-        for key, table in (("mass", self.weighed), ("com_distance", self.balanced)):
+        for q, table in self._measured_tables():
             for body, sd in table.items():
-                out.setdefault(body, {})[key] = float(sd)
+                out.setdefault(body, {})[q.name] = float(sd)
         return out
 
     def bodies(self) -> set[str]:
         """Every body the design names."""
         out = {b for m in self.mountings for b in m.bodies}
-        return out | set(self.priors) | set(self.weighed) | set(self.balanced)
+        return out | set(self.priors) | set(self.measured)
 
     def check_bodies(self, nominal: Mapping[str, Any]) -> None:
         """An :class:`InputError` when the design names a body ``nominal`` does not have."""

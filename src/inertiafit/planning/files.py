@@ -24,6 +24,7 @@ from inertiafit._checks import check_number, check_positive, check_probability
 from inertiafit.errors import InputError
 from inertiafit.inference.priors import load_prior, priors_from_posterior
 from inertiafit.io.manifest import read_passive, read_postures
+from inertiafit.measured import MEASURED_QUANTITIES
 from inertiafit.mounting import Mounting
 from inertiafit.physics import PARAMETERS
 from inertiafit.planning.design import ConditionNoise, Design, NoiseLevels
@@ -34,8 +35,8 @@ __all__ = ["load_plan_file", "pilot_inputs"]
 _FILE_KEYS = {"name", "gravity", "hdi_prob", "bodies", "noise", "targets", "defaults", "designs",
               "max_trials_per_speed", "seed", "passive", "postures"}  # fmt: skip
 _DESIGN_KEYS = {"name", "conditions", "trials_per_speed", "speeds", "quasi_static_trials",
-                "priors", "weigh", "balance", "torque_gain_sd", "postures",
-                "rest_trials", "rotation_sweeps"}  # fmt: skip
+                "priors", "torque_gain_sd", "postures", "rest_trials", "rotation_sweeps",
+                *(q.plan_key for q in MEASURED_QUANTITIES.values())}  # fmt: skip
 _BODY_KEYS = {*PARAMETERS, "prior", "living"}
 _NOISE_KEYS = {"inertia_sd", "inertia_relative_sd", "gravity_moment_se"}
 
@@ -179,11 +180,11 @@ def _design(
         kwargs["torque_gain_sd"] = check_number(table["torque_gain_sd"], f"{where}.torque_gain_sd")
     if "priors" in table:
         kwargs["priors"] = _table(table["priors"], f"{where}.priors")
-    for key, attr in (("weigh", "weighed"), ("balance", "balanced")):
-        if key in table:
-            kwargs[attr] = {
-                b: check_positive(sd, f"{where}.{key}.{b}")
-                for b, sd in _table(table[key], f"{where}.{key}").items()
+    for q in MEASURED_QUANTITIES.values():
+        if q.plan_key in table:
+            kwargs[q.design_field] = {
+                b: check_positive(sd, f"{where}.{q.plan_key}.{b}")
+                for b, sd in _table(table[q.plan_key], f"{where}.{q.plan_key}").items()
             }
     kwargs.update(living.design_kwargs(table, where))
     return Design(**kwargs)

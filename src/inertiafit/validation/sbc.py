@@ -72,6 +72,7 @@ from inertiafit.inference.model import Condition, Model
 from inertiafit.inference.observations import Observation
 from inertiafit.inference.priors import Prior, anthropometric_prior
 from inertiafit.inference.sampler import SamplerSettings
+from inertiafit.measured import measured_quantity
 from inertiafit.mounting import Mounting
 from inertiafit.physics import GRAVITY, REPORTED
 
@@ -183,6 +184,10 @@ class Design:
             # a positive offset keeps the simulated values above the unmoved totals' noise floor
             if m.offset_body and not m.offset > 0:
                 raise InputError(f"mounting offset: expected a positive distance, got {m.offset}")
+        for body, table in self.measured.items():
+            for key, sd in table.items():
+                q = measured_quantity(key, where=f"measured: {body}")
+                check_positive(sd, f"measured: {body}.{key}", q.unit)
 
     @property
     def label(self) -> str:
@@ -416,7 +421,9 @@ def draw_truth_and_data(design: Design, rng: np.random.Generator) -> Simulation:
     measured: dict[str, dict[str, Observation]] = {}
     for body, table in design.measured.items():
         for key, sd in table.items():
-            reading = truth[body][key] + sd * rng.standard_normal()
+            quantity = measured_quantity(key, where=f"measured: {body}")
+            true = quantity.value(truth[body]["mass"], truth[body]["com_distance"])
+            reading = true + sd * rng.standard_normal()
             measured.setdefault(body, {})[key] = Observation.from_mean_se(
                 reading, sd, where=f"measured {body} {key}"
             )
