@@ -199,7 +199,9 @@ def test_negative_control_a_wrong_likelihood_scale_fails_the_same_test(evidence,
 
 def test_a_simulated_measurement_reads_the_registry_and_bad_ones_are_one_line():
     # the reading is the quantity's value of the truth (its registry entry), with its noise
-    design = replace(attachment_design(0, "mean_se"), measured={"attachment": {"com_distance": 1e-9}})
+    design = replace(
+        attachment_design(0, "mean_se"), measured={"attachment": {"com_distance": 1e-9}}
+    )
     sim = draw_truth_and_data(design, np.random.default_rng(3))
     (obs,) = sim.measured["attachment"].values()
     assert obs.center == pytest.approx(sim.truth["attachment"]["com_distance"], abs=1e-8)
