@@ -131,9 +131,9 @@ class Design:
             raise InputError(f"{where}: speeds: expected at least one speed")
         for s in self.speeds:
             check_positive(s, f"{where}: speeds", "deg/s")
-        for q, table in self._measured_tables():
+        for quantity, table in self._measured_tables():
             for body, sd in table.items():
-                check_positive(sd, f"{where}: {q.design_field}.{body}", q.unit)
+                check_positive(sd, f"{where}: {quantity.design_field}.{body}", quantity.unit)
 
     def _check_living(self, where: str) -> None:
         body = self.living
