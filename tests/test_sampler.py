@@ -174,3 +174,33 @@ def test_a_convergence_check_stops_at_the_first_failing_quantity_and_decides_as_
     )
     # negative control: without the stuck walkers nothing fails
     assert convergence_check({"mass": good}, 1000.0, 1.01)[2] is None
+
+
+def test_nested_r_hat_over_groups_of_walkers_passes_a_mixed_ensemble_and_fails_a_split_one():
+    """Nested R-hat (``superchains``) compares groups of walkers, not every walker: a mixed
+    ensemble at bulk ESS ~600 passes 1.01 where R-hat with each of 32 walkers a chain (its
+    expected excess about 64 half-walkers / (2 ESS) = 0.05) fails it; a group of walkers
+    half an SD off still fails the nested one."""
+    from inertiafit.inference.sampler import convergence_check
+
+    rng = np.random.default_rng(21)
+    phi = 0.9  # AR(1) walkers: tau = (1 + phi) / (1 - phi) = 19 steps
+    walkers, steps = 32, 400
+    eps = rng.standard_normal((walkers, steps + 100))
+    x = np.empty_like(eps)
+    x[:, 0] = eps[:, 0]
+    for t in range(1, eps.shape[1]):
+        x[:, t] = phi * x[:, t - 1] + np.sqrt(1 - phi * phi) * eps[:, t]
+    mixed = x[:, 100:, None]  # (walkers, draws, one body)
+    ess, plain, culprit = convergence_check({"m": mixed}, 400.0, 1.01, early=False)
+    assert 400 < ess < 1000
+    assert plain > 1.02
+    assert culprit == 0
+    ess_n, nested, culprit_n = convergence_check({"m": mixed}, 400.0, 1.01, superchains=4)
+    assert ess_n == ess
+    assert nested < 1.01
+    assert culprit_n is None
+    # negative control: the walkers of one group (w % 4 == 0) half an SD off
+    split = mixed.copy()
+    split[::4] += 0.5
+    assert convergence_check({"m": split}, 400.0, 1.01, superchains=4)[2] == 0
