@@ -465,3 +465,23 @@ def test_importing_the_command_line_and_batch_does_not_import_dask():
         [sys.executable, "-c", code], capture_output=True, text=True, encoding="utf-8", check=True
     ).stdout
     assert out.strip() == "[]"
+
+
+def test_every_study_of_a_batch_gets_its_ess_target_and_a_bad_one_stops_nothing_started(
+    studies, tmp_path, monkeypatch
+):
+    """``run-many --ess-min``: each study's run_study is asked for it (run_study's own test,
+    tests/test_study.py, checks what it does); a bad value is one line before any study."""
+    asked = []
+
+    def fake(manifest, **kwargs):
+        asked.append(kwargs["ess_min"])
+        raise batch_module.InputError(f"{manifest}: stopped here")
+
+    monkeypatch.setattr(batch_module, "run_study", fake)
+    _batch([studies[0], studies[2]], tmp_path / "out", workers=1, ess_min=5000)
+    assert asked == [5000, 5000]
+    with pytest.raises(batch_module.InputError, match=r"^ess_min: expected a number in "):
+        _batch([studies[0]], tmp_path / "bad", workers=1, ess_min=10)
+    assert not (tmp_path / "bad").exists()
+    assert len(asked) == 2

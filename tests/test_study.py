@@ -263,3 +263,31 @@ def test_several_quasi_static_trials_combine_by_inverse_variance():
     )
     # weights 100 and 25: (700 + 182.5) / 125
     assert condition_gravity(rows) == pytest.approx({"A": 7.06, "B": 19.0})
+
+
+def test_a_larger_ess_target_stores_more_draws_and_is_recorded(small_study):
+    """``ess_min`` (``--ess-min``): sampling goes on until every quantity's bulk ESS reaches
+    it, so a population of studies gets more draws per subject; the target is in posterior.nc.
+    The default (1000) is the negative control: the same study stops with fewer draws."""
+    from inertiafit.pipeline.study import study_posterior
+
+    default = study_posterior(small_study / "study.toml", seed=3)
+    more = study_posterior(small_study / "study.toml", seed=3, ess_min=20_000)
+    assert default.attrs["ess_min_target"] == 1000
+    assert more.attrs["ess_min_target"] == 20_000
+    assert more.summary()["ess_bulk"].min() >= 20_000
+    assert default.summary()["ess_bulk"].min() < 20_000
+    assert more.draws("attachment", "mass").size >= 2 * default.draws("attachment", "mass").size
+
+
+@pytest.mark.parametrize("bad", [50, 1e6, float("nan")])
+def test_a_bad_ess_target_is_one_line_before_any_work(small_study, tmp_path, capsys, bad):
+    out = tmp_path / "out"  # (text that is no number is argparse's: tested with every option)
+    argv = ["run", str(small_study / "study.toml"), "--out", str(out), "--ess-min", str(bad)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith("inertiafit: error: --ess-min: expected a number in [100, 100000]")
+    assert not out.exists()
+    with pytest.raises(InputError, match=r"^ess_min: expected a number in \[100, 100000\]"):
+        analyse_study(small_study / "study.toml", ess_min=bad)

@@ -28,6 +28,7 @@ from inertiafit.plotting.style import figure_dpi
 __all__ = [
     "COMMANDS",
     "Command",
+    "add_ess_min",
     "add_formats",
     "add_hdi_prob",
     "add_out",
@@ -109,6 +110,18 @@ def add_hdi_prob(
 ) -> None:
     """``--hdi-prob``: a number, checked by the library (default 0.95)."""
     p.add_argument("--hdi-prob", type=_number, default=default, help=help)
+
+
+def add_ess_min(p: argparse.ArgumentParser) -> None:
+    """``--ess-min``: the bulk ESS a study's sampler must reach (checked by the library)."""
+    p.add_argument(
+        "--ess-min",
+        type=_number,
+        default=None,
+        metavar="N",
+        help="bulk ESS every reported quantity must reach before sampling stops (default "
+        "1000; 100-100000): more stores more draws, for a population of studies",
+    )
 
 
 def add_formats(p: argparse.ArgumentParser) -> None:
@@ -340,6 +353,7 @@ class _Run(Command):
         p.add_argument("study", type=Path, metavar="STUDY", help="the study manifest (TOML)")
         _add_common(p, "inertiafit-output")
         add_formats(p)
+        add_ess_min(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -352,6 +366,7 @@ class _Run(Command):
             seed=args.seed,
             hdi_prob=args.hdi_prob,
             formats=check_formats(args.formats),
+            ess_min=args.ess_min,
         )
         return 0
 
@@ -401,6 +416,7 @@ class _RunMany(Command):
         add_seed(p, help="seed of every study's sampler (default 0)")
         add_hdi_prob(p)
         add_formats(p)
+        add_ess_min(p)
 
     @staticmethod
     def run(args: argparse.Namespace) -> int:
@@ -415,6 +431,7 @@ class _RunMany(Command):
             hdi_prob=args.hdi_prob,
             formats=args.formats,
             connect_timeout=args.connect_timeout,
+            ess_min=args.ess_min,
         )
         n, failed = len(batch.table), batch.failed
         print(

@@ -584,7 +584,7 @@ def fit_population(
     if culprit is not None:
         warnings.warn(
             f"population: the hyperparameters did not converge in {steps} steps (bulk ESS "
-            f"{bulk:.0f}, R-hat {r:.3f}); the intervals are rough",
+            f"{bulk:.0f}, nested R-hat {r:.3f}); the intervals are rough",
             ConvergenceWarning,
             stacklevel=2,
         )
@@ -828,7 +828,7 @@ class PopulationPosterior:
                 f"{fit.diagnostics.get('loglike_variance', float('nan')):.2g}); "
                 f"hyperparameters: {fit.diagnostics.get('steps', '?')} steps, bulk ESS "
                 f">= {fit.diagnostics.get('ess_bulk_min', float('nan')):.0f}, "
-                f"R-hat <= {fit.diagnostics.get('r_hat_max', float('nan')):.3f}"
+                f"nested R-hat <= {fit.diagnostics.get('r_hat_max', float('nan')):.3f}"
             )
             lines.append(f"  typical subject ({t['reference'].iloc[0]}), median [{pct} HDI]:")
             for _, r in t[t["term"] == "typical"].iterrows():
@@ -859,7 +859,7 @@ class PopulationPosterior:
 
     @staticmethod
     def _row(body, p, term, v, chain, hdi_prob, unit, reference) -> dict[str, Any]:
-        from arviz_stats import ess, rhat
+        from arviz_stats import ess, rhat_nested
 
         lo, hi = model.hdi_bounds(v, hdi_prob)
         return {
@@ -872,7 +872,8 @@ class PopulationPosterior:
             "hdi_prob": hdi_prob,
             "unit": unit,
             "ess_bulk": float(ess(chain, method="bulk")),
-            "r_hat": float(rhat(chain)),
+            # nested R-hat over the groups of walkers the stopping rule reads
+            "r_hat": float(rhat_nested(chain, superchain_ids=np.arange(len(chain)) % SUPERCHAINS)),
             "reference": reference,
         }
 
@@ -1066,7 +1067,7 @@ def population(
                 f"population: body {body!r}: the variance of the estimated log likelihood is "
                 f"{fit.diagnostics['loglike_variance']:.2g} (above {MAX_LOGLIKE_VARIANCE:g}) "
                 f"with {fit.n_draws} draws per subject: the intervals may be narrower than "
-                "they should be",
+                "they should be (fit the studies with more draws: run-many --ess-min)",
                 InertiafitWarning,
                 stacklevel=2,
             )

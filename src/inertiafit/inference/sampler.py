@@ -29,7 +29,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from inertiafit._checks import check_non_negative, check_positive, check_seed, check_whole
+from inertiafit._checks import (
+    check_interval,
+    check_non_negative,
+    check_positive,
+    check_seed,
+    check_whole,
+)
 from inertiafit.errors import ConvergenceWarning, InputError
 from inertiafit.inference.blocked import BlockedGibbs
 from inertiafit.inference.model import Model
@@ -50,6 +56,7 @@ __all__ = [
     "convergence_check",
     "resolve_moves",
     "sample",
+    "sampler_settings",
 ]
 
 #: Names :attr:`SamplerSettings.moves` accepts.
@@ -227,6 +234,27 @@ def convergence_check(
             if early:
                 return float(ess[i]), float(rhat[i]), culprit
     return float(np.min(ess)), float(np.max(rhat)), culprit
+
+
+#: The bulk ESS a study may ask its sampler for (``ess_min``): from 100 (an interval's ends then
+#: carry a Monte Carlo error of several % of its width) to 100 000 (about what 20 000 steps of
+#: 32 walkers give at two steps of autocorrelation).
+ESS_MIN_RANGE = (100.0, 100_000.0)
+
+
+def sampler_settings(ess_min: float | None = None) -> SamplerSettings | None:
+    """The settings of a study's sampler asked for a bulk ESS of ``ess_min`` (None: defaults).
+
+    Raises
+    ------
+    InputError
+        ``ess_min`` not a number in :data:`ESS_MIN_RANGE`.
+    """
+    if ess_min is None:
+        return None
+    low, high = ESS_MIN_RANGE
+    value = check_interval(ess_min, "ess_min", low, high, lower_closed=True, upper_closed=True)
+    return SamplerSettings(ess_min=value)
 
 
 def resolve_moves(model: Model, moves: str) -> str:

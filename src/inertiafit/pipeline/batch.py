@@ -57,6 +57,7 @@ import pandas as pd
 
 from inertiafit._checks import check_positive, check_probability, check_seed, check_whole
 from inertiafit.errors import InputError
+from inertiafit.inference.sampler import sampler_settings
 from inertiafit.io.manifest import load_study
 from inertiafit.io.outputs import MARKER, check_out, guard_outputs, output_folder, write_csv
 from inertiafit.pipeline.study import DIAGNOSTICS, run_study, study_inputs
@@ -93,7 +94,7 @@ class StudyTask:
         The study manifest.
     folder : str
         Output folder of this study (inside the batch's temporary folder).
-    seed, hdi_prob, formats
+    seed, hdi_prob, formats, ess_min
         As for :func:`inertiafit.pipeline.study.run_study`.
     in_worker : bool
         Runs in a Dask worker: Matplotlib is switched to the Agg backend first.
@@ -106,6 +107,7 @@ class StudyTask:
     hdi_prob: float
     formats: tuple[str, ...]
     in_worker: bool = False
+    ess_min: float | None = None
 
 
 def _one_line(exc: BaseException) -> str:
@@ -169,6 +171,7 @@ def run_one(task: StudyTask) -> dict[str, Any]:
                 formats=task.formats,
                 echo=lambda _msg: None,
                 progress=lambda _msg: None,
+                ess_min=task.ess_min,
             )
         record["converged"] = bool(result.posterior.converged)
         record["warnings"] = [
@@ -496,6 +499,7 @@ def run_many(
     formats: Sequence[str] = DEFAULT_FORMATS,
     echo: Callable[[str], None] | None = None,
     connect_timeout: float = 10.0,
+    ess_min: float | None = None,
 ) -> BatchResult:
     """Run a batch of studies: each manifest's whole pipeline into ``out/<name>``.
 
@@ -522,6 +526,8 @@ def run_many(
         Receives the progress lines (default: printed to stderr).
     connect_timeout : float
         Seconds to wait for ``scheduler``.
+    ess_min : float, optional
+        Every study's bulk ESS target (as ``inertiafit run --ess-min``).
 
     Returns
     -------
@@ -538,6 +544,7 @@ def run_many(
     say = echo or _stderr
     out = Path(out)
     paths = _check_inputs(manifests, out, scheduler, workers, hdi_prob, seed, connect_timeout)
+    sampler_settings(ess_min)  # a bad value before any study runs
     formats = check_formats(formats)
     names = study_names(paths)
     n_local = min(workers or _available_cpus(), len(paths))
@@ -572,6 +579,7 @@ def run_many(
                     hdi_prob=hdi_prob,
                     formats=formats,
                     in_worker=pool.in_worker,
+                    ess_min=ess_min,
                 )
                 for i, (path, name) in enumerate(zip(paths, names, strict=True))
             ]

@@ -31,6 +31,7 @@ from inertiafit.inference.evidence import check_trials_in_priors, study_model, s
 from inertiafit.inference.fit import fit
 from inertiafit.inference.model import Model
 from inertiafit.inference.priors import Prior
+from inertiafit.inference.sampler import sampler_settings
 from inertiafit.io import Study, load_study
 from inertiafit.io.manifest import file_sha256
 from inertiafit.io.outputs import check_out, guard_outputs, holds_only, output_folder, write_csv
@@ -130,13 +131,17 @@ def study_inputs(study: Study) -> list[Path]:
 
 
 def _sample_study(
-    study: Study | str | Path, seed: int, say: Callable[[str], None]
+    study: Study | str | Path,
+    seed: int,
+    say: Callable[[str], None],
+    ess_min: float | None = None,
 ) -> tuple[Study, dict[str, Prior], dict, ProcessedStudy, dict, Posterior]:
     """Every trial processed and the joint posterior sampled (what two functions share).
 
     Returns ``(study, priors, ideals, processed, living tables, posterior)`` for
     :func:`analyse_study` and :func:`study_posterior`.
     """
+    settings = sampler_settings(ess_min)
     if not isinstance(study, Study):
         study = load_study(study)
     priors = study_priors(study)
@@ -179,7 +184,7 @@ def _sample_study(
         if processed.living is not None
         else {}
     )
-    post = fit(model, seed=seed, inputs=inputs, provenance=provenance)
+    post = fit(model, seed=seed, inputs=inputs, provenance=provenance, settings=settings)
     if processed.living is not None:  # its own group of posterior.nc, for `inertiafit report`
         post.tree[LIVING_GROUP] = living_datatree(living, processed.living)
     conflicts = evidence_conflicts(model, post, where=str(study.path))
@@ -273,6 +278,7 @@ def study_posterior(
     *,
     seed: int = 0,
     echo: Callable[[str], None] | None = None,
+    ess_min: float | None = None,
 ) -> Posterior:
     """The joint posterior of :func:`analyse_study`, alone: the same draws for the same seed.
 
@@ -283,7 +289,7 @@ def study_posterior(
     :func:`analyse_study` does (:class:`~inertiafit.errors.StudyRefused`).
     """
     check_seed(seed)
-    return _sample_study(study, seed, echo or (lambda _msg: None))[-1]
+    return _sample_study(study, seed, echo or (lambda _msg: None), ess_min)[-1]
 
 
 def analyse_study(
@@ -292,6 +298,7 @@ def analyse_study(
     seed: int = 0,
     hdi_prob: float = 0.95,
     echo: Callable[[str], None] | None = None,
+    ess_min: float | None = None,
 ) -> Result:
     """Process every trial and sample the joint posterior (nothing written).
 
@@ -305,6 +312,10 @@ def analyse_study(
         Probability of the highest-density intervals of the comparison table.
     echo : callable, optional
         Receives one progress line per stage.
+    ess_min : float, optional
+        The bulk ESS every reported quantity must reach before sampling stops (default
+        1000, :class:`~inertiafit.inference.sampler.SamplerSettings`); more gives more stored
+        draws, which a population of studies (``inertiafit population``) reads.
 
     Returns
     -------
@@ -316,7 +327,7 @@ def analyse_study(
     check_seed(seed)
     check_probability(hdi_prob, "hdi_prob")
     say = echo or (lambda _msg: None)
-    study, priors, ideals, processed, living, post = _sample_study(study, seed, say)
+    study, priors, ideals, processed, living, post = _sample_study(study, seed, say, ess_min)
     trials = processed.all_trials  # trials.csv: skipped trials listed too
     used = processed.trials
     notes = list(processed.warnings)
@@ -354,6 +365,7 @@ def run_study(
     formats: tuple[str, ...] = DEFAULT_FORMATS,
     echo: Callable[[str], None] = print,
     progress: Callable[[str], None] | None = None,
+    ess_min: float | None = None,
 ) -> Result:
     """``inertiafit run``: the whole pipeline, outputs written to ``out`` (replaced whole).
 
@@ -361,13 +373,14 @@ def run_study(
     it may not hold the manifest, a trial file or a prior file.
     """
     say = progress or (lambda msg: print(msg, file=sys.stderr))
+    sampler_settings(ess_min)  # a bad value before anything is read
     check_out(out, inputs=[manifest])  # before the manifest is read
     study = load_study(manifest)
     check_out(out, inputs=study_inputs(study))
     # The figure workers start now and ready matplotlib while the trials are read and sampled.
     with figure_workers() as pool:
         try:
-            result = analyse_study(study, seed=seed, hdi_prob=hdi_prob, echo=say)
+            result = analyse_study(study, seed=seed, hdi_prob=hdi_prob, echo=say, ess_min=ess_min)
         except StudyRefused as exc:
             _diagnose(exc, out, say)
             raise
