@@ -364,3 +364,18 @@ def test_a_hyperparameter_gets_the_verdict_a_body_parameter_does():
         draws = rng.standard_normal(20000)
         draws *= ratio / draws.std()
         assert _decided(draws, 1.0, ess) == expected, (ratio, ess)
+
+
+def test_walkers_come_in_whole_groups_for_nested_r_hat():
+    """Nested R-hat needs as many walkers in each group: 30 asked become 32 (4 groups of 8),
+    and population.csv's R-hat is read over the same groups."""
+    from inertiafit.inference.pooling import SUPERCHAINS
+
+    hyper = V.SBC_HYPERPRIOR
+    cohort = V.simulate_cohort(
+        4, hyperprior=hyper, center=CENTER, rng=np.random.default_rng(3), n_draws=500
+    )
+    fit = _fit(cohort, hyper, n_walkers=30, max_steps=250, chunk=250)
+    assert fit.draws.shape[0] == 32
+    assert fit.draws.shape[0] % SUPERCHAINS == 0
+    assert math.isfinite(fit.diagnostics["r_hat_max"])

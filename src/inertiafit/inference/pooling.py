@@ -528,7 +528,8 @@ def fit_population(
     else:  # the mode next to where the density is zero: the warm-up finds the spread
         cov = np.eye(design.ndim) * 0.01
     rng = np.random.default_rng(seed)
-    n_walkers = max(n_walkers, 2 * design.ndim + 2)
+    # enough walkers for the moves, in whole groups for nested R-hat
+    n_walkers = SUPERCHAINS * math.ceil(max(n_walkers, 2 * design.ndim + 2) / SUPERCHAINS)
     if not np.isfinite(log_post(mode))[0]:
         z, _ = model.to_model(design, mode[None])
         subject_ess = _weight_ess(features.log_weights(design, matrices, z)[:, 0])
