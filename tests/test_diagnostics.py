@@ -90,7 +90,7 @@ def test_a_sweep_that_does_not_determine_m_g_is_refused_naming_it(base, tmp_path
         manifest,
         tmp_path / "out",
         r"\S+/data/A_quasistatic\.csv: angle: a quasi-static sweep of 2\.5 deg gives "
-        r"M_g = 184\.6 \+- 703\.4 N m, which it does not determine \(the interval reaches 0\); "
+        r"M_g = 184\.6 ± 703\.4 N m, which it does not determine \(the interval reaches 0\); "
         r"record the quasi-static trial over 30 deg or more \(the fast trials' range\)",
     )
     assert table.loc[QS, "status"] == "refused"
@@ -221,7 +221,7 @@ def test_quasi_static_m_g_scattered_beyond_their_errors_are_refused(base, tmp_pa
     message = str(info.value)
     assert re.fullmatch(
         r"\S+/study\.toml: condition 'attachment': its quasi-static trials give M_g = 6\.732 "
-        r"\+- 0\.038 N m \(\S+/data/A_quasistatic\.csv\), 8\.751 \+- 0\.05 N m "
+        r"± 0\.038 N m \(\S+/data/A_quasistatic\.csv\), 8\.751 ± 0\.05 N m "
         r"\(\S+/data/A_quasistatic_2\.csv\): 32 standard errors apart, where one condition has "
         r"one M_g; check for a body moved between them, a trial of another mounting or a "
         r"torque zero that drifted, and give such a trial its own condition \(or remove it\)",
@@ -314,7 +314,7 @@ def test_a_gravity_model_that_misses_the_fast_trials_is_blamed_not_their_sign():
     assert verdicts[0].error == (
         "t.csv: torque: inertia -0.7 kg m^2 is negative (the torque opposes the acceleration in "
         "the window 0.2 to 0.32 s); its torque at constant speed follows the condition's gravity "
-        "model with a slope of 0.1 where +-1 is expected: the gravity model (its quasi-static "
+        "model with a slope of 0.1 where ±1 is expected: the gravity model (its quasi-static "
         "trials' scale, sweep or sign) is wrong, not this torque's sign"
     )
 
@@ -345,7 +345,7 @@ def test_every_negative_trial_is_told_which_sign_to_flip(slope, advice):
     trials = [(1, estimate(-0.2, 0.1), slope), (1, estimate(-0.21), slope)]
     first, second = inertia_sign_checks(trials, "a")
     assert first is not None
-    assert first.flag == f"negative inertia -0.2 +- 0.1 kg m^2; {advice}"  # within 3 SE
+    assert first.flag == f"negative inertia -0.2 ± 0.1 kg m^2; {advice}"  # within 3 SE
     assert second is not None
     assert second.error.endswith(advice)
 

@@ -194,7 +194,7 @@ def test_a_gravity_moment_no_body_of_the_box_has_is_reported_as_a_data_problem()
     )
     with pytest.raises(
         InputError,
-        match=r"^condition 'disk': its quasi-static trials give M_g = 0\.0063 \+- 0\.002 N m, "
+        match=r"^condition 'disk': its quasi-static trials give M_g = 0\.0063 ± 0\.002 N m, "
         r"outside the [\d.]+ to [\d.]+ N m that the prior 'disk-3kg' of body 'disk' allows: "
         r"check those trials \(a flat, clipped or wrongly scaled torque, too short a sweep\?\) "
         r"before the prior$",

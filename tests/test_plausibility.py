@@ -174,7 +174,7 @@ def test_a_quasi_static_sweep_too_short_for_the_gravity_model_is_named(base, tmp
     with pytest.raises(
         InputError,
         match=r"A_quasistatic\.csv: angle: a quasi-static sweep of 2\.5 deg gives M_g = 18\d\.?\d* "
-        r"\+- 70\d\.?\d* N m, which it does not determine \(the interval reaches 0\); record the "
+        r"± 70\d\.?\d* N m, which it does not determine \(the interval reaches 0\); record the "
         r"quasi-static trial over 30 deg or more \(the fast trials' range\)$",
     ):
         process_study(study(base, tmp_path, edit=cut))

@@ -335,7 +335,7 @@ def _check_data_in_box(cond: Condition, prior: Prior, gravity: float) -> None:
             continue
         raise InputError(
             f"condition '{cond.label}': its {r.trials} give {r.symbol} = {obs.center:.4g} "
-            f"+- {obs.scale:.2g} {r.unit}, outside the {r.low:.4g} to {r.high:.4g} {r.unit} that "
+            f"± {obs.scale:.2g} {r.unit}, outside the {r.low:.4g} to {r.high:.4g} {r.unit} that "
             f"the prior '{prior.name}' of body '{cond.bodies[0]}' allows: check those trials "
             f"({r.causes}?) before the prior"
         )

@@ -127,7 +127,7 @@ def check_passive_entry(key: str, value: object, where: str) -> Any:
         return check_positive(value, where, shown)
     lo, hi = check_increasing_pair(value, where, f"joint angles [lo, hi] in {unit}")
     if max(abs(lo), abs(hi)) >= _MAX_DEG:
-        raise InputError(f"{where}: joint angles must be within +-{_MAX_DEG:g} deg, got {value!r}")
+        raise InputError(f"{where}: joint angles must be within ±{_MAX_DEG:g} deg, got {value!r}")
     return (lo, hi)
 
 

@@ -958,7 +958,7 @@ def fit_gravity(
         )
     if noisy and reg.friction_probability > FRICTION_FLAG:
         flags.append(
-            f"friction builds up at the start of the sweep: {reg.friction:.3g} +- "
+            f"friction builds up at the start of the sweep: {reg.friction:.3g} ± "
             f"{reg.friction_se:.2g} N m over about {math.degrees(reg.friction_angle):.2g} deg "
             "(fitted; the offset holds its steady value, and fast trials carry the same "
             "build-up early in their ramp)"

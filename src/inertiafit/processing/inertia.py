@@ -398,7 +398,7 @@ def estimate_inertia(
                 f"{_sign_hint(trial, torque_sign)}"
             )
         flags.append(
-            f"negative inertia {value:.3g} +- {se:.2g} kg m^2; {_sign_hint(trial, torque_sign)}"
+            f"negative inertia {value:.3g} ± {se:.2g} kg m^2; {_sign_hint(trial, torque_sign)}"
         )
     clipped = saturated_run(raw_torque)
     if clipped:

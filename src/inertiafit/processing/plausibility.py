@@ -177,9 +177,9 @@ def _check_gravity_share(source: str, estimate: InertiaEstimate, gravity: Gravit
         return
     raise InputError(
         f"{source}: its condition's gravity model (from {gravity.source}, a sweep of "
-        f"{math.degrees(gravity.angle_range):.3g} deg: M_g = {gravity.gravity_moment:.4g} +- "
+        f"{math.degrees(gravity.angle_range):.3g} deg: M_g = {gravity.gravity_moment:.4g} ± "
         f"{gravity.gravity_moment_se:.2g} N m) moves this trial's inertia "
-        f"{estimate.inertia:.4g} kg m^2 by +- {spread:.2g}: record the quasi-static trial over "
+        f"{estimate.inertia:.4g} kg m^2 by ± {spread:.2g}: record the quasi-static trial over "
         f"the fast trials' range ({MIN_RANGE:g} deg or more separates M_g, phi and the offset)"
     )
 
@@ -283,7 +283,7 @@ def check_quasi_static_sweep(fit: GravityFit) -> GravityFit:
         return fit
     raise InputError(
         f"{fit.source}: angle: a quasi-static sweep of {sweep:.3g} deg gives M_g = "
-        f"{fit.gravity_moment:.4g} +- {fit.gravity_moment_se:.4g} N m, which it "
+        f"{fit.gravity_moment:.4g} ± {fit.gravity_moment_se:.4g} N m, which it "
         "does not "
         f"determine (the interval reaches 0); record the quasi-static trial over "
         f"{MIN_RANGE:g} deg or more (the fast trials' range)"
@@ -336,7 +336,7 @@ def gravity_scatter_message(fits: Sequence[GravityFit], condition: str) -> str |
     if not worst > GRAVITY_SCATTER_MAX:
         return None
     listed = ", ".join(
-        f"{f.gravity_moment:.4g} +- {f.gravity_moment_se:.2g} N m ({f.source})" for f in fits
+        f"{f.gravity_moment:.4g} ± {f.gravity_moment_se:.2g} N m ({f.source})" for f in fits
     )
     return (
         f"condition '{condition}': its quasi-static trials give M_g = {listed}: {worst:.3g} "
@@ -402,7 +402,7 @@ def inertia_sign_checks(
         if slope is not None and not SLOPE_RANGE[0] <= abs(slope) <= SLOPE_RANGE[1]:
             advice = (
                 f"its torque at constant speed follows the condition's gravity model with a "
-                f"slope of {slope:.2g} where +-1 is expected: the gravity model (its "
+                f"slope of {slope:.2g} where ±1 is expected: the gravity model (its "
                 "quasi-static trials' scale, sweep or sign) is wrong, not this torque's sign"
             )
         elif not positive:
@@ -445,6 +445,6 @@ def inertia_sign_checks(
             out.append(SignVerdict(error=message))
         else:
             out.append(
-                SignVerdict(flag=f"negative inertia {value:.3g} +- {se:.2g} kg m^2; {advice}")
+                SignVerdict(flag=f"negative inertia {value:.3g} ± {se:.2g} kg m^2; {advice}")
             )
     return out

@@ -711,7 +711,7 @@ def _measured_rotations(
             notes.append(
                 f"{study.path}: postures.{name}.gravity_rotation: declared "
                 f"{math.degrees(declared):g} deg from postures.{reference}, a rigid sweep "
-                f"measures {math.degrees(delta):.1f} +- {math.degrees(se):.1f} deg; the "
+                f"measures {math.degrees(delta):.1f} ± {math.degrees(se):.1f} deg; the "
                 "measured rotation is used (check the declared value, its sign and the "
                 "trials' posture labels)"
             )

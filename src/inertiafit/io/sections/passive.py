@@ -178,7 +178,7 @@ def _check_per_radian(
         raise fail(
             where,
             f"mean {mean:g} {unit} is {ref_mean / mean if mean else math.inf:.0f} times below "
-            f"the joint's prior ({ref_mean:g} +- {ref_sd:g}) and looks like a value per degree; "
+            f"the joint's prior ({ref_mean:g} ± {ref_sd:g}) and looks like a value per degree; "
             f"give it per radian: {{ mean = {per_degree:.3g}, sd = {math.degrees(sd):.3g} }}",
         )
 
