@@ -332,3 +332,54 @@ def test_provenance_has_every_matched_file(tmp_path):
         assert row["sha256"] == digest
         assert row["status"] == "ok"
     assert list(processed.trials["file"]) == [r["file"] for r in rows]
+
+
+@pytest.mark.parametrize("key", ["file", "files"])
+def test_a_home_folder_that_does_not_exist_is_one_line(tmp_path, key):
+    # found by the fuzz test: Path.expanduser raised RuntimeError for "~qs.csv"
+    _files(tmp_path, "data/A_qs.csv")
+    entry = f'[[trials]]\n{key} = "~nosuch-user-9/B.csv"\nbodies = ["attachment"]\nkind = "fast"\n'
+    message = _error(_manifest(tmp_path, QS + entry))
+    assert message.endswith(
+        f"trials[1].{key}: '~nosuch-user-9/B.csv': ~nosuch-user-9 names no home folder on this "
+        "machine"
+    )
+
+
+SCRIPT = """
+import sys
+from pathlib import Path
+from inertiafit.errors import InputError
+from inertiafit.io import load_study
+try:
+    load_study(Path(sys.argv[1]))
+except InputError as exc:
+    print(exc)
+"""
+
+
+def test_a_file_name_the_file_system_cannot_hold_is_one_line(tmp_path):
+    # found by the fuzz test in CI's locale (LC_ALL=C, UTF-8 mode off: an ASCII file-system
+    # encoding): os.path.realpath raised UnicodeEncodeError for "\x80qs.csv". Here in a child
+    # with that locale; the negative control, a UTF-8 child, says only that the file is missing.
+    import os
+    import subprocess
+    import sys
+
+    _files(tmp_path, "data/A_qs.csv")
+    entry = '[[trials]]\nfile = "data/\\u00e9.csv"\nbodies = ["attachment"]\nkind = "fast"\n'
+    manifest = _manifest(tmp_path, QS + entry)
+    said = {}
+    for locale, utf8 in (("C", "0"), ("C.UTF-8", "1")):
+        env = dict(os.environ, LC_ALL=locale, PYTHONUTF8=utf8, PYTHONIOENCODING="utf-8")
+        done = subprocess.run(
+            [sys.executable, "-c", SCRIPT, str(manifest)],
+            capture_output=True, text=True, encoding="utf-8", env=env, check=False,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        said[locale] = done.stdout.strip()
+    assert said["C"].endswith(
+        "trials[1].file: 'data/é.csv': this machine's file names cannot hold 'é' (file-system "
+        "encoding ascii); rename the file or run in a UTF-8 locale"
+    )
+    assert "file not found" in said["C.UTF-8"]

@@ -11,6 +11,7 @@ reader registered with :func:`register_section`, imported by :mod:`inertiafit.io
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,10 +28,12 @@ __all__ = [
     "as_table",
     "check_keys",
     "check_name",
+    "expand_user",
     "fail",
     "number",
     "number_within",
     "register_section",
+    "resolve_file",
 ]
 
 
@@ -89,6 +92,36 @@ def register_section(section: Section) -> Section:
 def fail(where: str, message: str) -> InputError:
     """The one-line error of a manifest key: ``<where>: <message>``."""
     return InputError(f"{where}: {message}")
+
+
+def expand_user(text: str, *, where: str) -> Path:
+    """``text`` as a path with a leading ``~`` or ``~user`` expanded.
+
+    A one-line error when the home folder it names is unknown here (``Path.expanduser`` raises
+    RuntimeError then).
+    """
+    try:
+        return Path(text).expanduser()
+    except RuntimeError:
+        user = text.split("/", 1)[0]
+        raise fail(where, f"{text!r}: {user} names no home folder on this machine") from None
+
+
+def resolve_file(text: str, base: Path, *, where: str) -> Path:
+    """The absolute path of ``text`` (relative to ``base``, ``~`` expanded).
+
+    A one-line error when this machine's file names cannot hold one of its characters (an
+    ASCII file-system encoding, ``LC_ALL=C``, meets a non-ASCII name).
+    """
+    try:
+        return (base / expand_user(text, where=where)).resolve()
+    except UnicodeEncodeError as exc:
+        bad = exc.object[exc.start : exc.end]
+        raise fail(
+            where,
+            f"{text!r}: this machine's file names cannot hold {bad!r} (file-system encoding "
+            f"{sys.getfilesystemencoding()}); rename the file or run in a UTF-8 locale",
+        ) from None
 
 
 def number(value: object, *, where: str, what: str) -> float:

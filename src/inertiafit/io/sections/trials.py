@@ -37,9 +37,11 @@ from inertiafit.io.sections.base import (
     SectionContext,
     as_table,
     check_keys,
+    expand_user,
     fail,
     number,
     register_section,
+    resolve_file,
 )
 from inertiafit.io.sections.calibration import read_lag
 from inertiafit.io.sections.postures import Posture, posture_name
@@ -449,7 +451,7 @@ def match_files(pattern: object, base: Path, *, where: str) -> list[tuple[Path, 
         )
     if "\x00" in pattern:
         raise fail(where, f"a pattern cannot hold a NUL character, got {pattern!r}")
-    expanded = str(Path(pattern).expanduser())
+    expanded = str(expand_user(pattern, where=where))
     found = sorted(glob.glob(expanded, root_dir=base, recursive=True))
     out = [(path, shown) for shown in found if (path := (base / shown).resolve()).is_file()]
     if not out:
@@ -477,7 +479,7 @@ def _entry_files(entry: Mapping[str, Any], *, here: str, base: Path) -> list[tup
         raise fail(f"{here}.file", f"expected a path (a string), got {entry['file']!r}")
     if "\x00" in entry["file"]:
         raise fail(f"{here}.file", f"a path cannot hold a NUL character, got {entry['file']!r}")
-    file = (base / Path(entry["file"]).expanduser()).resolve()
+    file = resolve_file(entry["file"], base, where=f"{here}.file")
     if not file.is_file():
         raise fail(f"{here}.file", f"file not found: {file}")
     return [(file, entry["file"])]
