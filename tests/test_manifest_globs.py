@@ -383,3 +383,12 @@ def test_a_file_name_the_file_system_cannot_hold_is_one_line(tmp_path):
         "encoding ascii); rename the file or run in a UTF-8 locale"
     )
     assert "file not found" in said["C.UTF-8"]
+
+
+def test_a_manifest_under_an_unknown_home_folder_is_one_line():
+    with pytest.raises(InputError) as info:
+        load_study("~nosuch-user-9/study.toml")
+    assert str(info.value) == (
+        "study manifest: '~nosuch-user-9/study.toml': ~nosuch-user-9 names no home folder on "
+        "this machine"
+    )

@@ -108,6 +108,7 @@ from inertiafit.errors import InputError
 from inertiafit.io.emg import EmgSettings
 from inertiafit.io.sections import SECTIONS, SectionContext
 from inertiafit.io.sections.base import fail as _fail
+from inertiafit.io.sections.base import resolve_file
 from inertiafit.io.sections.bodies import BODY_KEYS, MEASURED_KEYS, BodySpec
 from inertiafit.io.sections.calibration import (
     CALIBRATION_KEYS,
@@ -316,7 +317,7 @@ def load_study(path: str | Path) -> Study:
         with them, a rest trial without the living body or with a ``speed``, and a condition
         of the living body with rest trials but no quasi-static one.
     """
-    path = check_path(path).expanduser().resolve()
+    path = resolve_file(str(check_path(path)), Path(), where="study manifest")
     where = str(path)
     if not path.is_file():
         raise _fail(where, "study manifest not found")
