@@ -379,3 +379,20 @@ def test_walkers_come_in_whole_groups_for_nested_r_hat():
     assert fit.draws.shape[0] == 32
     assert fit.draws.shape[0] % SUPERCHAINS == 0
     assert math.isfinite(fit.diagnostics["r_hat_max"])
+
+
+def test_population_csv_r_hat_is_nested_and_an_older_file_s_odd_walkers_get_plain_r_hat():
+    from arviz_stats import rhat, rhat_nested
+
+    from inertiafit.inference.pooling import SUPERCHAINS, PopulationPosterior
+
+    rng = np.random.default_rng(4)
+    for walkers in (32, 34):  # 34: a population.nc from before walkers came in whole groups
+        chain = rng.standard_normal((walkers, 300))
+        chain[::SUPERCHAINS] += 0.3  # one group off: nested and plain R-hat differ
+        row = PopulationPosterior._row("b", "mass", "scatter", chain.ravel(), chain, 0.95, "", "")
+        if walkers % SUPERCHAINS == 0:
+            ids = np.arange(walkers) % SUPERCHAINS
+            assert row["r_hat"] == pytest.approx(rhat_nested(chain, superchain_ids=ids))
+        else:
+            assert row["r_hat"] == pytest.approx(rhat(chain))

@@ -860,9 +860,17 @@ class PopulationPosterior:
 
     @staticmethod
     def _row(body, p, term, v, chain, hdi_prob, unit, reference) -> dict[str, Any]:
-        from arviz_stats import ess, rhat_nested
+        from arviz_stats import ess, rhat, rhat_nested
 
         lo, hi = model.hdi_bounds(v, hdi_prob)
+        # nested R-hat over the groups of walkers the stopping rule reads (a population.nc
+        # written before walkers came in whole groups: plain R-hat)
+        groups = len(chain) % SUPERCHAINS == 0
+        r_hat = (
+            rhat_nested(chain, superchain_ids=np.arange(len(chain)) % SUPERCHAINS)
+            if groups
+            else rhat(chain)
+        )
         return {
             "body": body,
             "parameter": p,
@@ -873,8 +881,7 @@ class PopulationPosterior:
             "hdi_prob": hdi_prob,
             "unit": unit,
             "ess_bulk": float(ess(chain, method="bulk")),
-            # nested R-hat over the groups of walkers the stopping rule reads
-            "r_hat": float(rhat_nested(chain, superchain_ids=np.arange(len(chain)) % SUPERCHAINS)),
+            "r_hat": float(r_hat),
             "reference": reference,
         }
 
