@@ -479,14 +479,14 @@ class Cells:
                 covs.append(cov)
                 consts.append(math.log((b - a) / len(t)) + beta[0] + 0.5 * g @ cov @ g)
         n = len(subjects)
-        self.k = k
-        self.means = np.array(means).reshape(n, k, 3)
-        self.covs = np.array(covs).reshape(n, k, 3, 3)
+        self.n, self.k = n, k
         self.consts = np.array(consts).reshape(n, k)
         # Each component its own contiguous (N, k) array: the density adds a walker's
         # scatter to every cell (see log_likelihood for what that saves).
-        self._cov = [np.ascontiguousarray(self.covs[..., i, j]) for i, j in _UPPER]
-        self._mean = [np.ascontiguousarray(self.means[..., i]) for i in range(3)]
+        cell_cov = np.array(covs).reshape(n, k, 3, 3)
+        cell_mean = np.array(means).reshape(n, k, 3)
+        self._cov = [np.ascontiguousarray(cell_cov[..., i, j]) for i, j in _UPPER]
+        self._mean = [np.ascontiguousarray(cell_mean[..., i]) for i in range(3)]
 
     def log_weights(self, design: Design, matrices, z: np.ndarray) -> np.ndarray:
         """Each cell's log mean weight ``(W, N, k)`` under each walker's population."""
@@ -518,7 +518,7 @@ class Cells:
         of one array, as before, 5.5 ms).
         """
         z = np.atleast_2d(z)
-        step = max(1, BLOCK // self.means.shape[0] // self.k)
+        step = max(1, BLOCK // self.n // self.k)
         out = np.empty(len(z))
         for i in range(0, len(z), step):
             lw = self.log_weights(design, matrices, z[i : i + step])
