@@ -31,8 +31,13 @@ from inertiafit.physics import GRAVITY, PARAMETERS
 from inertiafit.simulate.study import simulate_study
 
 N_SUBJECTS = 5
-# Short runs (below) may stop before the convergence targets.
-pytestmark = pytest.mark.filterwarnings("ignore::inertiafit.errors.ConvergenceWarning")
+# Short runs (below) may stop before the convergence targets; five subjects of ESS 300 each
+# leave the estimated log likelihood noisy (its variance near 1 against the exact one, and
+# the split halves say so: the warning is right, and these tests are about files).
+pytestmark = [
+    pytest.mark.filterwarnings("ignore::inertiafit.errors.ConvergenceWarning"),
+    pytest.mark.filterwarnings("ignore:population.*variance of the estimated log likelihood"),
+]
 
 
 def _subject(i: int, rng) -> tuple[dict, float, np.ndarray]:
