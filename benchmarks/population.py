@@ -7,7 +7,7 @@ around a table value 15 % high): the population is fitted and
 
 - the regression coefficients' 95 % HDIs (intercepts, slopes, scatters) cover the truth in
   this fraction of cohorts;
-- five held-out subjects per cohort (not in the fit): their true ``I`` and ``M_g`` in the
+- ten held-out subjects per cohort (not in the fit): their true ``I`` and ``M_g`` in the
   population's 95 % predictive interval for their covariates;
 - pooling narrows each subject's ``m``, ``x``, ``rho`` by this median ratio of 95 % HDI widths
   (pooled over own: below 1 narrower; the own posterior leans on its +-0.3 prior in log).
@@ -30,8 +30,8 @@ import numpy as np
 from common import standalone, table
 
 SIZES = (10, 20, 40)
-STUDIES = 8
-HELD_OUT = 5
+STUDIES = 24
+HELD_OUT = 10
 SBC_COHORTS = 40
 
 
