@@ -507,7 +507,7 @@ class Cells:
         k = max(1, min(k, size // draws_per_cell))
         n = len(subjects)
         # every subject's draws in one array, each labelled with its cell (subject * k + cell)
-        labels, share = [], []
+        labels, shares = [], []
         for number, s in enumerate(subjects):
             t = s.log_theta
             label = np.zeros(len(t), dtype=int)
@@ -516,11 +516,11 @@ class Cells:
                 starts = _spread_starts(scaled, k, np.random.default_rng([seed, number]))
                 label = kmeans2(scaled, starts, minit="matrix")[1]
             labels.append(number * k + label)
-            share.append(np.full(len(t), 1.0 / len(t)))
+            shares.append(np.full(len(t), 1.0 / len(t)))
         label = np.concatenate(labels)
         t = np.concatenate([s.log_theta for s in subjects])
         off = np.concatenate([s.offset for s in subjects])
-        share = np.concatenate(share)
+        share = np.concatenate(shares)
         cells = n * k
 
         def total(values: np.ndarray) -> np.ndarray:
