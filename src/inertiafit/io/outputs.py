@@ -244,9 +244,16 @@ def _resolve(out: str | Path, label: str = "out: ") -> Path:
         raise InputError(f"{label}the path holds a NUL character; expected a folder path")
     try:
         target = Path(text).expanduser().resolve()
+        size = len(os.fsencode(target.name))
     except (OSError, RuntimeError) as exc:
         raise InputError(f"{label}{text}: cannot follow the path ({exc})") from None
-    size = len(os.fsencode(target.name))
+    except UnicodeEncodeError as exc:  # an ASCII file-system encoding meets a non-ASCII name
+        bad = exc.object[exc.start : exc.end]
+        raise InputError(
+            f"{label}{text!r}: this machine's file names cannot hold {bad!r} (file-system "
+            f"encoding {sys.getfilesystemencoding()}); choose another name or run in a UTF-8 "
+            "locale"
+        ) from None
     if size > _MAX_NAME:
         raise InputError(
             f"{label}folder name too long ({size} bytes; expected at most {_MAX_NAME})"
