@@ -474,3 +474,27 @@ def test_population_csv_r_hat_is_nested_and_an_older_file_s_odd_walkers_get_plai
             assert row["r_hat"] == pytest.approx(rhat_nested(chain, superchain_ids=ids))
         else:
             assert row["r_hat"] == pytest.approx(rhat(chain))
+
+
+def test_draws_a_sampler_repeated_make_cells_that_are_their_own_mean_of_weights():
+    """A subject whose 200 stored draws are three points repeated (a stuck sampler): k-means
+    leaves most of its 12 cells empty, which weigh nothing (no warning: the suite turns
+    warnings into errors), and each point's cell is the point itself, so the cells' likelihood
+    is the mean of importance weights exactly (to 1e-10), at a wide and a narrow population."""
+    pts = np.log([[1.6, 0.2, 0.13], [1.7, 0.19, 0.13], [1.5, 0.21, 0.135]])
+    theta = np.repeat(pts, [100, 60, 40], axis=0)
+    subject = P.SubjectDraws(
+        "S1",
+        theta,
+        -theta.sum(axis=1) * 0.5,  # some interim density, the same at each repeat
+        {"body_mass": 75.0, "segment_length": 0.27},
+        np.array([[0.5, 5.0], [0.05, 0.5], [0.05, 0.5]]),
+    )
+    mats = DESIGN.matrices([subject.covariates] * 2)
+    z = np.repeat(V.center_vector(DESIGN, CENTER)[None], 2, axis=0)
+    z[1, 6:9] = math.log(0.02)
+    cells = P.Cells([subject, subject])
+    assert cells.k == 12 and np.isinf(cells.consts).sum() >= 2 * 9
+    value = cells.log_likelihood(DESIGN, mats, z)
+    mean = P.log_likelihood(P.Features([subject, subject]), DESIGN, mats, z)
+    np.testing.assert_allclose(value, mean, rtol=0, atol=1e-10)

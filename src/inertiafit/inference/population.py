@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 
@@ -514,7 +515,9 @@ class Cells:
             if k > 1:
                 scaled = t / np.where(t.std(axis=0) > 0, t.std(axis=0), 1.0)
                 starts = _spread_starts(scaled, k, np.random.default_rng([seed, number]))
-                label = kmeans2(scaled, starts, minit="matrix")[1]
+                with warnings.catch_warnings():  # a cluster left empty weighs nothing (below)
+                    warnings.filterwarnings("ignore", "One of the clusters is empty")
+                    label = kmeans2(scaled, starts, minit="matrix")[1]
             labels.append(number * k + label)
             shares.append(np.full(len(t), 1.0 / len(t)))
         label = np.concatenate(labels)
@@ -544,7 +547,8 @@ class Cells:
         g = np.einsum("cij,cj->ci", np.linalg.pinv(cov, hermitian=True), cov_o)
         cov_g = np.einsum("cij,cj->ci", cov, g)
         means = mean + cov_g
-        consts = np.log(total(share)) + o_mean + 0.5 * np.einsum("ci,ci->c", g, cov_g)
+        with np.errstate(divide="ignore"):  # an empty cell: log 0, replaced below
+            consts = np.log(total(share)) + o_mean + 0.5 * np.einsum("ci,ci->c", g, cov_g)
         covs = cov
         # Too few draws for the linear part (fewer than four, an outlying draw or two): the
         # Gaussian of their weighted moments widened by the mean covariance of the subject's
