@@ -494,7 +494,8 @@ def test_draws_a_sampler_repeated_make_cells_that_are_their_own_mean_of_weights(
     z = np.repeat(V.center_vector(DESIGN, CENTER)[None], 2, axis=0)
     z[1, 6:9] = math.log(0.02)
     cells = P.Cells([subject, subject])
-    assert cells.k == 12 and np.isinf(cells.consts).sum() >= 2 * 9
+    assert cells.k == 12
+    assert np.isinf(cells.consts).sum() >= 2 * 9
     value = cells.log_likelihood(DESIGN, mats, z)
     mean = P.log_likelihood(P.Features([subject, subject]), DESIGN, mats, z)
     np.testing.assert_allclose(value, mean, rtol=0, atol=1e-10)
