@@ -159,3 +159,21 @@ def study_out(tmp_path_factory):
         assert isinstance(pools[0], concurrent.futures.ProcessPoolExecutor)
 
     return once_per_run(tmp_path_factory, "rep", make) / "out"
+
+
+def in_ascii_and_utf8_locales(script: str, *args: str) -> dict[str, str]:
+    """What a child Python running ``script`` prints, per locale: ``"C"`` as CI runs (UTF-8
+    mode off: an ASCII file-system encoding) and ``"C.UTF-8"`` (the negative control)."""
+    import subprocess
+    import sys
+
+    said = {}
+    for locale, utf8 in (("C", "0"), ("C.UTF-8", "1")):
+        env = dict(os.environ, LC_ALL=locale, PYTHONUTF8=utf8, PYTHONIOENCODING="utf-8")
+        done = subprocess.run(
+            [sys.executable, "-c", script, *args],
+            capture_output=True, text=True, encoding="utf-8", env=env, check=False,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        said[locale] = done.stdout.strip()
+    return said

@@ -362,22 +362,12 @@ def test_a_file_name_the_file_system_cannot_hold_is_one_line(tmp_path):
     # found by the fuzz test in CI's locale (LC_ALL=C, UTF-8 mode off: an ASCII file-system
     # encoding): os.path.realpath raised UnicodeEncodeError for "\x80qs.csv". Here in a child
     # with that locale; the negative control, a UTF-8 child, says only that the file is missing.
-    import os
-    import subprocess
-    import sys
+    from conftest import in_ascii_and_utf8_locales
 
     _files(tmp_path, "data/A_qs.csv")
     entry = '[[trials]]\nfile = "data/\\u00e9.csv"\nbodies = ["attachment"]\nkind = "fast"\n'
     manifest = _manifest(tmp_path, QS + entry)
-    said = {}
-    for locale, utf8 in (("C", "0"), ("C.UTF-8", "1")):
-        env = dict(os.environ, LC_ALL=locale, PYTHONUTF8=utf8, PYTHONIOENCODING="utf-8")
-        done = subprocess.run(
-            [sys.executable, "-c", SCRIPT, str(manifest)],
-            capture_output=True, text=True, encoding="utf-8", env=env, check=False,
-        )  # fmt: skip
-        assert done.returncode == 0, done.stderr
-        said[locale] = done.stdout.strip()
+    said = in_ascii_and_utf8_locales(SCRIPT, str(manifest))
     assert said["C"].endswith(
         "trials[1].file: 'data/é.csv': this machine's file names cannot hold 'é' (file-system "
         "encoding ascii); rename the file or run in a UTF-8 locale"

@@ -909,15 +909,9 @@ def test_an_out_the_file_system_cannot_name_is_one_line_from_python(tmp_path):
     """From Python (the command line's argv is already surrogate-escaped), in CI's locale
     (``LC_ALL=C``, UTF-8 mode off: an ASCII file-system encoding) a non-ASCII ``out`` raised
     UnicodeEncodeError where it is resolved. Negative control: a UTF-8 child accepts it."""
-    said = {}
-    for locale, utf8 in (("C", "0"), ("C.UTF-8", "1")):
-        env = dict(os.environ, LC_ALL=locale, PYTHONUTF8=utf8, PYTHONIOENCODING="utf-8")
-        done = subprocess.run(
-            [sys.executable, "-c", NON_ASCII_OUT, str(tmp_path)],
-            capture_output=True, text=True, encoding="utf-8", env=env, check=False,
-        )  # fmt: skip
-        assert done.returncode == 0, done.stderr
-        said[locale] = done.stdout.strip()
+    from conftest import in_ascii_and_utf8_locales
+
+    said = in_ascii_and_utf8_locales(NON_ASCII_OUT, str(tmp_path))
     assert said["C"] == (
         f"out: '{tmp_path}/résultats': this machine's file names cannot hold 'é' (file-system "
         "encoding ascii); choose another name or run in a UTF-8 locale"
