@@ -472,16 +472,16 @@ def _spread_starts(points: np.ndarray, k: int, rng: np.random.Generator) -> np.n
 class Cells:
     """Each subject's draws summarised as compact Gaussian cells, for the density.
 
-    A subject's draws are grouped into ``k`` cells by k-means (``scipy.cluster.vq.kmeans2``,
-    k-means++ starts (:func:`_spread_starts`) drawn with ``seed``, each coordinate of ``log theta`` scaled by the
-    subject's SD); each cell is a Gaussian (the mean and covariance of its draws) carrying its share of the draws, and the
-    weight's draw-dependent part (``-log(m x rho) - log pi``) is taken as linear in
-    ``log theta`` within it (least squares over its draws). The mean weight of a cell under a
-    lognormal population is then exact for that Gaussian,
-    ``N(m_k + C_k g_k; mu, Sigma + C_k)`` times ``exp(o_k + g_k' C_k g_k / 2)`` (a cell of
-    fewer than four draws, too few for the linear part, is the Gaussian of their weighted
-    moments as thick as the subject's other cells), so it stays
-    finite and smooth as the population narrows, where the mean over single draws is carried
+    A subject's draws are grouped into ``k`` cells by k-means (``scipy.cluster.vq.kmeans2``;
+    k-means++ starts, :func:`_spread_starts`, drawn with ``seed``; each coordinate of
+    ``log theta`` scaled by the subject's SD); each cell is a Gaussian (the mean and
+    covariance of its draws) carrying its share of the draws, and the weight's draw-dependent
+    part (``-log(m x rho) - log pi``) is taken as linear in ``log theta`` within it (least
+    squares over its draws). The mean weight of a cell under a lognormal population is then
+    exact for that Gaussian, ``N(m_k + C_k g_k; mu, Sigma + C_k)`` times
+    ``exp(o_k + g_k' C_k g_k / 2)`` (a cell of fewer than four draws, too few for the linear
+    part, is the Gaussian of their weighted moments as thick as the subject's other cells),
+    so it stays finite and smooth as the population narrows, where the mean over single draws is carried
     by the one draw nearest the regression (:data:`MIN_ESS`), at ``k`` terms instead of one
     per draw. On one subject's 3000 draws it matched the likelihood integrated directly over
     populations from 20 % wide to 3 % narrow within 0.07 (one cell: off by over 0.4;
@@ -552,9 +552,9 @@ class Cells:
         covs = cov
         # Too few draws for the linear part (fewer than four, an outlying draw or two): the
         # Gaussian of their weighted moments widened by the mean covariance of the subject's
-        # other cells, so that it is as thick as they are (as a point, it made a spike a
-        # narrow population could sit on: five subjects' importance ESS fell to 1-37 of 7744
-        # at the posterior's median); none: the cell weighs nothing.
+        # other cells, so that it is as thick as they are (a point's density would grow
+        # without bound under a population narrowing onto it, as the mean over single draws
+        # does); none: the cell weighs nothing.
         full = (count >= draws_per_cell).reshape(n, k)
         typical = np.einsum("nk,nkij->nij", full, cov.reshape(n, k, 3, 3))
         typical /= np.maximum(full.sum(axis=1), 1)[:, None, None]
