@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import operator
 import os
+import sys
 from pathlib import Path
 
 from inertiafit.errors import InputError
@@ -70,6 +71,19 @@ def check_path(value: object, where: str = "path") -> Path:
     if isinstance(value, (str, os.PathLike)) and str(value).strip():
         return Path(value)
     raise InputError(f"{where}: expected a file path (str or pathlib.Path), got {value!r}")
+
+
+def unnameable(exc: UnicodeEncodeError) -> str:
+    """What a path's character this machine's file names cannot hold is, for a message.
+
+    An ASCII file-system encoding (``LC_ALL=C`` with UTF-8 mode off) meeting a non-ASCII
+    name: ``this machine's file names cannot hold 'é' (file-system encoding ascii)``.
+    """
+    bad = exc.object[exc.start : exc.end]
+    return (
+        f"this machine's file names cannot hold {bad!r} (file-system encoding "
+        f"{sys.getfilesystemencoding()})"
+    )
 
 
 def check_number(value: object, where: str) -> float:

@@ -55,6 +55,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from inertiafit._checks import unnameable
 from inertiafit.errors import InputError
 from inertiafit.io.stops import signals_held, sigterm_ends, stop_point
 
@@ -247,12 +248,9 @@ def _resolve(out: str | Path, label: str = "out: ") -> Path:
         size = len(os.fsencode(target.name))
     except (OSError, RuntimeError) as exc:
         raise InputError(f"{label}{text}: cannot follow the path ({exc})") from None
-    except UnicodeEncodeError as exc:  # an ASCII file-system encoding meets a non-ASCII name
-        bad = exc.object[exc.start : exc.end]
+    except UnicodeEncodeError as exc:
         raise InputError(
-            f"{label}{text!r}: this machine's file names cannot hold {bad!r} (file-system "
-            f"encoding {sys.getfilesystemencoding()}); choose another name or run in a UTF-8 "
-            "locale"
+            f"{label}{text!r}: {unnameable(exc)}; choose another name or run in a UTF-8 locale"
         ) from None
     if size > _MAX_NAME:
         raise InputError(

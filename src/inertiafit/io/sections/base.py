@@ -11,12 +11,12 @@ reader registered with :func:`register_section`, imported by :mod:`inertiafit.io
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from inertiafit._checks import unnameable
 from inertiafit.errors import InputError
 
 __all__ = [
@@ -116,11 +116,8 @@ def resolve_file(text: str, base: Path, *, where: str) -> Path:
     try:
         return (base / expand_user(text, where=where)).resolve()
     except UnicodeEncodeError as exc:
-        bad = exc.object[exc.start : exc.end]
         raise fail(
-            where,
-            f"{text!r}: this machine's file names cannot hold {bad!r} (file-system encoding "
-            f"{sys.getfilesystemencoding()}); rename the file or run in a UTF-8 locale",
+            where, f"{text!r}: {unnameable(exc)}; rename the file or run in a UTF-8 locale"
         ) from None
 
 
