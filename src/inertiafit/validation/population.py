@@ -97,6 +97,20 @@ def _lognormal_logpdf(v: np.ndarray, median: float, sd_log: float) -> np.ndarray
     return -0.5 * z * z - np.log(v) - math.log(sd_log)
 
 
+def measured(
+    truth: Sequence[float], rel_se: float, rng: np.random.Generator, gravity: float = GRAVITY
+) -> tuple[float, float]:
+    """A subject's ``I`` and ``M_g`` as measured.
+
+    ``truth`` is ``(m, x, rho)``; each is off by a relative standard error ``rel_se`` (``I``
+    drawn first).
+    """
+    m, x, rho = truth
+    i_obs = m * (rho**2 + x**2) * (1 + rel_se * rng.standard_normal())
+    g_obs = m * gravity * x * (1 + rel_se * rng.standard_normal())
+    return float(i_obs), float(g_obs)
+
+
 def exact_subject_draws(
     name: str,
     truth: Sequence[float],
@@ -119,18 +133,12 @@ def exact_subject_draws(
     lognormal per parameter (``prior_median``, ``prior_sd_log``) on ``median * exp(+-4.753
     sd_log)``. ``observed`` gives ``(I, M_g)`` as measured instead of drawing them.
     """
-    m0, x0, r0 = truth
-    if observed is None:
-        i_true, g_true = m0 * (r0**2 + x0**2), m0 * gravity * x0
-        i_obs = i_true * (1 + rel_se * rng.standard_normal())
-        g_obs = g_true * (1 + rel_se * rng.standard_normal())
-    else:
-        i_obs, g_obs = observed
+    i_obs, g_obs = measured(truth, rel_se, rng, gravity) if observed is None else observed
     i_se, g_se = rel_se * i_obs, rel_se * g_obs
     half = 4.753 * prior_sd_log
     lo = np.asarray(prior_median) * math.exp(-half)
     hi = np.asarray(prior_median) * math.exp(half)
-    m_obs = None if mass_sd is None else m0 + mass_sd * rng.standard_normal()
+    m_obs = None if mass_sd is None else truth[0] + mass_sd * rng.standard_normal()
     m = np.exp(rng.uniform(math.log(lo[0]), math.log(hi[0]), n_proposal))  # log-uniform m
     a = rng.normal(g_obs, g_se, n_proposal)
     b = rng.normal(i_obs, i_se, n_proposal)
@@ -190,11 +198,7 @@ def simulate_cohort(
     ) * np.asarray(prior_bias)
     subjects, observed = [], []
     for i in range(n):
-        m0, x0, r0 = np.exp(theta[i])
-        # measured here (the same draws exact_subject_draws would make), so they are kept
-        i_obs = m0 * (r0**2 + x0**2) * (1 + rel_se * rng.standard_normal())
-        g_obs = m0 * GRAVITY * x0 * (1 + rel_se * rng.standard_normal())
-        observed.append((float(i_obs), float(g_obs)))
+        observed.append(measured(np.exp(theta[i]), rel_se, rng))  # kept, for the reference
         subjects.append(
             exact_subject_draws(
                 f"S{i + 1:02d}",
