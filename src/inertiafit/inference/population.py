@@ -538,9 +538,9 @@ class Cells:
         cov = np.empty((cells, 3, 3))
         for i, j in _UPPER:
             cov[:, i, j] = cov[:, j, i] = total(d[:, i] * d[:, j])
-        cov /= np.maximum(count - 1, 1)[:, None, None]
-        cov_o = np.column_stack([total(d[:, i] * do) for i in range(3)])
-        cov_o /= np.maximum(count - 1, 1)[:, None]
+        dof = np.maximum(count - 1, 1)
+        cov /= dof[:, None, None]
+        cov_o = np.column_stack([total(d[:, i] * do) for i in range(3)]) / dof[:, None]
         # The weight's draw-dependent part, least squares on the centred draws: the intercept
         # is its mean, the slopes the covariance's pseudo-inverse times its covariance with
         # the draws (a cell of repeated draws, as a sampler leaves, has a singular covariance).
@@ -549,7 +549,6 @@ class Cells:
         means = mean + cov_g
         with np.errstate(divide="ignore"):  # an empty cell: log 0, replaced below
             consts = np.log(total(share)) + o_mean + 0.5 * np.einsum("ci,ci->c", g, cov_g)
-        covs = cov
         # Too few draws for the linear part (fewer than four, an outlying draw or two): the
         # Gaussian of their weighted moments widened by the mean covariance of the subject's
         # other cells, so that it is as thick as they are (a point's density would grow
@@ -561,20 +560,20 @@ class Cells:
         for c in np.flatnonzero(count < 4):
             members = np.flatnonzero(label == c)
             if len(members) == 0:
-                means[c], covs[c], consts[c] = 0.0, np.eye(3), -np.inf
+                means[c], cov[c], consts[c] = 0.0, np.eye(3), -np.inf
                 continue
             u, o = t[members], off[members]
             w = np.exp(o - o.max())
             m = w @ u / w.sum()
             du = u - m
             means[c] = m
-            covs[c] = (w[:, None] * du).T @ du / w.sum() + typical[c // k]
+            cov[c] = (w[:, None] * du).T @ du / w.sum() + typical[c // k]
             consts[c] = math.log(w @ share[members]) + o.max()
         self.n, self.k = n, k
         self.consts = consts.reshape(n, k)
         # Each component its own contiguous (N, k) array: the density adds a walker's
         # scatter to every cell (see log_likelihood for what that saves).
-        cell_cov = covs.reshape(n, k, 3, 3)
+        cell_cov = cov.reshape(n, k, 3, 3)
         cell_mean = means.reshape(n, k, 3)
         self._cov = [np.ascontiguousarray(cell_cov[..., i, j]) for i, j in _UPPER]
         self._mean = [np.ascontiguousarray(cell_mean[..., i]) for i in range(3)]
